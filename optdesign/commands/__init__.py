@@ -1,0 +1,1 @@
+"""Subcommands of the ``optdesign`` command (one module each, see optdesign.cli)."""

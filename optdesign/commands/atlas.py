@@ -1,0 +1,31 @@
+"""optdesign atlas CONFIG --design NAME: local index maps over a workspace plane."""
+from __future__ import annotations
+
+from pathlib import Path
+
+COMMAND = "atlas"
+
+
+def register(sub):
+    p = sub.add_parser(COMMAND, help="write local index maps (CSV + contour PNGs) to indices/<config>-<design>/")
+    p.add_argument("config", help="YAML config file")
+    p.add_argument("--design", action="append", metavar="NAME", help="named design (repeatable; default: all)")
+    p.add_argument("--resolution", type=int, default=None, metavar="N",
+                   help="grid points per axis (default: the config's grid, or 41)")
+    p.add_argument("--out", default="indices", metavar="DIR", help="parent folder (default: indices)")
+    p.add_argument("--no-plots", action="store_true", help="write the CSV only")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ._common import design_names, open_config
+    from ..atlas import write_atlas
+    from ..cli import UsageError
+
+    cfg = open_config(args.config)
+    if args.resolution is not None and not 2 <= args.resolution <= 2000:
+        raise UsageError(f"--resolution: expected an integer in [2, 2000], got {args.resolution}")
+    for name in design_names(cfg, args.design):
+        out = write_atlas(cfg, name, Path(args.out) / f"{cfg.name}-{name}", args.resolution, plots=not args.no_plots)
+        print(f"wrote {out}/ (local_indices.csv" + ("" if args.no_plots else ", " + ", ".join(f"{k}.png" for k in cfg.indices)) + ")")
+    return 0

@@ -1,0 +1,58 @@
+"""optdesign evaluate CONFIG [--design NAME] [--json]: global indices of named designs."""
+from __future__ import annotations
+
+import json
+
+COMMAND = "evaluate"
+
+
+def register(sub):
+    p = sub.add_parser(COMMAND, help="global indices (mean, min, max over W) of the config's designs")
+    p.add_argument("config", help="YAML config file")
+    p.add_argument("--design", action="append", metavar="NAME",
+                   help="a named design of the config (repeatable; default: all)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
+    p.set_defaults(func=run)
+
+
+def comparison_rows(cfg, results: dict) -> list[list[str]]:
+    """Rows: design, index, mean, min, max, paper value, relative difference."""
+    from ._common import fmt
+
+    rows = []
+    for dname, rec in results.items():
+        ref = cfg.reference.get(dname, {})
+        for iname in cfg.indices:
+            v = rec[iname]
+            paper = ref.get(iname)
+            rel = (v["mean"] - paper) / paper if paper else None
+            rows.append([dname, iname, fmt(v["mean"]), fmt(v["min"]), fmt(v["max"]),
+                         fmt(paper) if paper is not None else "-",
+                         f"{100 * rel:+.2f}%" if rel is not None else "-"])
+    return rows
+
+
+def run(args) -> int:
+    from ._common import design_names, open_config, table
+    from ..evaluate import evaluate_named, workspace_of
+
+    cfg = open_config(args.config)
+    names = design_names(cfg, args.design)
+    ws = workspace_of(cfg)
+    res = evaluate_named(cfg, names, ws)
+    if args.json:
+        out = {"config": cfg.source, "mechanism": cfg.mechanism, "workspace_points": ws.n, "designs": {}}
+        for n, rec in res.items():
+            d = {k: rec[k] for k in cfg.indices}
+            d["reachable_fraction"] = rec["reachable_fraction"]
+            d["parameters"] = cfg.design(n)
+            if n in cfg.reference:
+                d["paper"] = cfg.reference[n]
+            out["designs"][n] = d
+        print(json.dumps(out, indent=2, allow_nan=True))
+        return 0
+    print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
+    print(table(["design", "index", "mean", "min", "max", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    print()
+    print(table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()]))
+    return 0

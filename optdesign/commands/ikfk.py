@@ -1,0 +1,50 @@
+"""optdesign ik / fk: inverse and forward kinematics of a named design."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+COMMAND = "ik"
+
+
+def register(sub):
+    for name, helptext, meta in (("ik", "inverse kinematics: pose -> actuator values", "POSE"),
+                                 ("fk", "forward kinematics: actuator values -> pose", "ACT")):
+        p = sub.add_parser(name, help=helptext)
+        p.add_argument("config", help="YAML config file")
+        p.add_argument("--design", default=None, metavar="NAME", help="named design (default: the initial design)")
+        p.add_argument("values", nargs="+", type=float, metavar=meta,
+                       help="pose coordinates (SI: m, rad)" if name == "ik" else "actuator values (SI: m, rad)")
+        p.add_argument("--json", action="store_true", help="print JSON")
+        p.set_defaults(func=run, kin=name)
+
+
+def run(args) -> int:
+    from ._common import open_config
+    from ..cli import UsageError
+
+    cfg = open_config(args.config)
+    design = args.design or ("initial" if "initial" in cfg.designs else next(iter(cfg.designs)))
+    mech = cfg.build(design)
+    n_in = mech.dof if args.kin == "ik" else mech.n_act
+    names_in = mech.pose_names if args.kin == "ik" else mech.actuator_names
+    names_out = mech.actuator_names if args.kin == "ik" else mech.pose_names
+    if len(args.values) != n_in:
+        raise UsageError(f"{args.kin}: expected {n_in} values ({', '.join(names_in)}), got {len(args.values)}")
+    v = np.array([args.values], dtype=float)
+    if not np.all(np.isfinite(v)):
+        raise UsageError(f"{args.kin}: expected finite numbers, got {args.values}")
+    with np.errstate(all="ignore"):
+        out = (mech.inverse(v) if args.kin == "ik" else mech.forward(v))[0]
+    ok = bool(np.all(np.isfinite(out)))
+    if args.json:
+        print(json.dumps({"design": design, "input": dict(zip(names_in, args.values)),
+                          "output": dict(zip(names_out, [float(x) if np.isfinite(x) else None for x in out])),
+                          "reachable": ok}))
+    elif ok:
+        print("  ".join(f"{n} = {x:.12g}" for n, x in zip(names_out, out)))
+    else:
+        what = "pose" if args.kin == "ik" else "actuator values"
+        print(f"unreachable: no real solution for these {what} ({design} design)")
+    return 0 if ok else 1

@@ -1,0 +1,179 @@
+"""Local performance indices (plain functions of matrices) and their global aggregates.
+
+All functions take stacks of matrices ``(..., n, n)`` and return ``(...)``.  A
+local value that cannot be computed (a singular or unreachable pose) is ``inf``
+for indices to be minimized and ``0`` for indices to be maximized, never a
+silent NaN: a design whose workspace meets a singularity then scores worst.
+
+Index kinds (the names a config uses):
+
+==============  =======  ==============================================================
+kind            sense    local value
+==============  =======  ==============================================================
+dynamic         min      sigma_max(M) = sqrt(lambda_max(M^T M)) (eq. 28), M of eq. 23
+stiffness       max      ``lambda_min_K`` (default): lambda_min(K), K = J^T k J, which
+                         equals sqrt(lambda_min(K^T K)); ``sqrt_lambda_min_K``: the
+                         literal eq. 33, sqrt(lambda_min(K))
+isotropy        min      ``frobenius`` (default): ||J||_F ||J^-1||_F / 1 (MATLAB's
+                         cond(J, 'fro')); ``two_norm``: sigma_max(J)/sigma_min(J), the
+                         literal eq. 36
+dexterity       max      1 / (||J||_F ||J^-1||_F) (normalized by the dimension n:
+                         ``normalized`` convention multiplies by n)
+manipulability  max      sqrt(det(J J^T))
+driving         max      sqrt(det(J^T J))
+==============  =======  ==============================================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+__all__ = [
+    "IndexKind", "INDEX_KINDS", "local_index", "global_summary",
+    "sigma_max", "sigma_min", "cond_fro", "cond_2",
+]
+
+
+def _finite_stack(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Replace non-finite matrices by the identity; return (clean, good mask)."""
+    good = np.all(np.isfinite(A), axis=(-1, -2))
+    eye = np.eye(A.shape[-1], A.shape[-2]) if A.shape[-1] == A.shape[-2] else np.zeros(A.shape[-2:])
+    return np.where(good[..., None, None], A, eye), good
+
+
+def singular_values(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (..., k) in descending order and the mask of finite inputs."""
+    Ac, good = _finite_stack(A)
+    return np.linalg.svd(Ac, compute_uv=False), good
+
+
+def sigma_max(A: np.ndarray) -> np.ndarray:
+    """Largest singular value, sqrt(lambda_max(A^T A)); inf where A is not finite."""
+    s, good = singular_values(A)
+    return np.where(good, s[..., 0], np.inf)
+
+
+def sigma_min(A: np.ndarray) -> np.ndarray:
+    """Smallest singular value; 0 where A is not finite."""
+    s, good = singular_values(A)
+    return np.where(good, s[..., -1], 0.0)
+
+
+def cond_2(A: np.ndarray) -> np.ndarray:
+    """sigma_max / sigma_min (the literal eq. 36); inf where singular."""
+    s, good = singular_values(A)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = s[..., 0] / s[..., -1]
+    return np.where(good & (s[..., -1] > 0), c, np.inf)
+
+
+def cond_fro(A: np.ndarray) -> np.ndarray:
+    """Frobenius condition number ||A||_F ||A^-1||_F (square A); inf where singular.
+
+    Uses the singular values: ||A||_F^2 = sum s^2, ||A^-1||_F^2 = sum 1/s^2.
+    """
+    s, good = singular_values(A)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.sqrt(np.sum(s * s, axis=-1) * np.sum(1.0 / (s * s), axis=-1))
+    return np.where(good & (s[..., -1] > 0) & np.isfinite(c), c, np.inf)
+
+
+@dataclass(frozen=True)
+class IndexKind:
+    """A local index: what it needs (``J`` and/or ``M``), its sense, its conventions."""
+
+    kind: str
+    needs: str                       # "J" or "M"
+    sense: str                       # "min" or "max"
+    conventions: tuple[str, ...]
+    default_convention: str | None
+    func: Callable[..., np.ndarray]
+    description: str
+
+
+def _dynamic(M, J, convention, options):
+    return sigma_max(M)
+
+
+def _stiffness(M, J, convention, options):
+    k = options.get("k", 1.0)
+    s = sigma_min(J)
+    if convention == "lambda_min_K":
+        return k * s * s
+    return np.sqrt(k) * s
+
+
+def _isotropy(M, J, convention, options):
+    return cond_fro(J) if convention == "frobenius" else cond_2(J)
+
+
+def _dexterity(M, J, convention, options):
+    c = cond_fro(J)
+    n = J.shape[-1] if convention == "normalized" else 1.0
+    with np.errstate(divide="ignore"):
+        return np.where(np.isfinite(c), n / c, 0.0)
+
+
+def _manip(M, J, convention, options):
+    Jc, good = _finite_stack(J)
+    det = np.linalg.det(Jc @ np.swapaxes(Jc, -1, -2))
+    return np.where(good, np.sqrt(np.maximum(det, 0.0)), 0.0)
+
+
+def _driving(M, J, convention, options):
+    Jc, good = _finite_stack(J)
+    det = np.linalg.det(np.swapaxes(Jc, -1, -2) @ Jc)
+    return np.where(good, np.sqrt(np.maximum(det, 0.0)), 0.0)
+
+
+INDEX_KINDS: dict[str, IndexKind] = {
+    "dynamic": IndexKind("dynamic", "M", "min", (), None, _dynamic,
+                         "dynamic index sigma_max(M) = sqrt(lambda_max(M^T M)) (eq. 28)"),
+    "stiffness": IndexKind("stiffness", "J", "max", ("lambda_min_K", "sqrt_lambda_min_K"), "lambda_min_K", _stiffness,
+                           "stiffness index from K = J^T k J (eq. 30-33)"),
+    "isotropy": IndexKind("isotropy", "J", "min", ("frobenius", "two_norm"), "frobenius", _isotropy,
+                          "velocity isotropy, condition number of J (eq. 36)"),
+    "dexterity": IndexKind("dexterity", "J", "max", ("plain", "normalized"), "plain", _dexterity,
+                           "dexterity 1/(||J||_F ||J^-1||_F)"),
+    "manipulability": IndexKind("manipulability", "J", "max", (), None, _manip, "manipulability sqrt(det(J J^T))"),
+    "driving": IndexKind("driving", "J", "max", (), None, _driving, "driving index sqrt(det(J^T J))"),
+}
+
+
+def local_index(kind: str, *, J: np.ndarray | None = None, M: np.ndarray | None = None,
+                convention: str | None = None, options: dict | None = None) -> np.ndarray:
+    """Evaluate one local index on stacks of matrices."""
+    spec = INDEX_KINDS[kind]
+    conv = convention if convention is not None else spec.default_convention
+    return spec.func(M, J, conv, options or {})
+
+
+def global_summary(values: np.ndarray, mask: np.ndarray | None = None, axis: int = -1) -> dict[str, np.ndarray]:
+    """The global index over W (eq. 29, 34, 37: the mean over the sampled points)
+    and min, max and standard deviation, over the points in ``mask`` along ``axis``.
+
+    With a uniform sample of W the mean is the discrete form of
+    int_W sigma dW / int_W dW.  Points outside ``mask`` are left out; a design
+    with no point in the mask gets NaN.
+    """
+    v = np.asarray(values, dtype=float)
+    if mask is None:
+        mask = np.isfinite(v)
+    mask = np.broadcast_to(mask, v.shape)
+    cnt = np.sum(mask, axis=axis)
+    vz = np.where(mask, v, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.sum(vz, axis=axis) / cnt
+        var = np.sum(np.where(mask, (v - np.expand_dims(mean, axis)) ** 2, 0.0), axis=axis) / cnt
+    vmin = np.min(np.where(mask, v, np.inf), axis=axis)
+    vmax = np.max(np.where(mask, v, -np.inf), axis=axis)
+    empty = cnt == 0
+    return {
+        "mean": np.where(empty, np.nan, mean),
+        "min": np.where(empty, np.nan, vmin),
+        "max": np.where(empty, np.nan, vmax),
+        "std": np.where(empty, np.nan, np.sqrt(var)),
+        "count": cnt,
+    }

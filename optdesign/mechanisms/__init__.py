@@ -1,0 +1,64 @@
+"""Mechanism registry.
+
+>>> from optdesign.mechanisms import get
+>>> mech = get("p4s")(r_a=0.25, r_b=0.67, L=0.38, d=0.12, phi=0.5236)
+
+Each mechanism module defines one :class:`~optdesign.mechanisms.base.Mechanism`
+subclass and registers it with :func:`register`.  Adding a mechanism is one
+module here plus one line in ``_MODULES``.
+"""
+from __future__ import annotations
+
+import importlib
+
+from .base import Mechanism
+
+_REGISTRY: dict[str, type[Mechanism]] = {}
+# name -> module that defines it (imported lazily so a broken optional module
+# never stops the others from loading)
+_MODULES = {
+    "p4s": "optdesign.mechanisms.p4s",
+    "ups_upr_s": "optdesign.mechanisms.ups_upr_s",
+    "cpr_rrr": "optdesign.mechanisms.cpr_rrr",
+    "sps_s": "optdesign.mechanisms.sps_s",
+}
+
+
+def register(cls: type[Mechanism]) -> type[Mechanism]:
+    """Class decorator: make a mechanism available under ``cls.name``."""
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def available() -> list[str]:
+    """Names of the mechanisms that can be built."""
+    names = []
+    for name, mod in _MODULES.items():
+        if name in _REGISTRY:
+            names.append(name)
+            continue
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if exc.name == mod:
+                continue
+            raise
+        if name in _REGISTRY:
+            names.append(name)
+    return names + [n for n in _REGISTRY if n not in names]
+
+
+def get(name: str) -> type[Mechanism]:
+    """The mechanism class registered under ``name``."""
+    if name not in _REGISTRY and name in _MODULES:
+        try:
+            importlib.import_module(_MODULES[name])
+        except ModuleNotFoundError as exc:
+            if exc.name != _MODULES[name]:
+                raise
+    if name not in _REGISTRY:
+        raise KeyError(f"unknown mechanism {name!r}; available: {', '.join(available())}")
+    return _REGISTRY[name]
+
+
+__all__ = ["Mechanism", "register", "available", "get"]

@@ -1,0 +1,110 @@
+"""The interface every mechanism offers (batched over poses and designs).
+
+Shapes: poses ``X`` are ``(..., N, dof)``, actuator values ``Q`` are
+``(..., N, n_act)``, Jacobians ``(..., N, n_act, dof)`` with ``qdot = J @ xdot``.
+Design parameters may be arrays that broadcast against ``X.shape[:-1]``: a
+population of ``D`` designs is given as parameters of shape ``(D, 1)`` and
+then ``inverse(X)`` with ``X`` of shape ``(N, dof)`` returns ``(D, N, n_act)``.
+"""
+from __future__ import annotations
+
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+
+
+class Mechanism:
+    """Base class: geometry and physics of one parallel mechanism."""
+
+    #: registry name used in configs
+    name: ClassVar[str] = ""
+    #: pose (task-space) coordinate names, in order
+    pose_names: ClassVar[tuple[str, ...]] = ()
+    #: actuator coordinate names, in order
+    actuator_names: ClassVar[tuple[str, ...]] = ()
+    #: design parameters (optimizable dimensions), SI
+    design_parameters: ClassVar[tuple[str, ...]] = ()
+    #: defaults for design parameters that a config may omit
+    design_defaults: ClassVar[Mapping[str, float]] = {}
+    #: design parameters that are lengths (must be positive)
+    length_parameters: ClassVar[tuple[str, ...]] = ()
+    #: fixed (non-optimized) parameters and their defaults, SI
+    fixed_parameters: ClassVar[Mapping[str, float]] = {}
+    positive_parameters: ClassVar[tuple[str, ...]] = ()
+    nonnegative_parameters: ClassVar[tuple[str, ...]] = ()
+    #: index kinds (optdesign.indices) that make sense for this mechanism
+    supported_indices: ClassVar[tuple[str, ...]] = ()
+    #: which pose axes are angles (for unit display)
+    angular_axes: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, **params: Any):
+        unknown = set(params) - set(self.design_parameters) - set(self.fixed_parameters)
+        if unknown:
+            raise TypeError(f"{type(self).__name__}: unknown parameter(s) {', '.join(sorted(unknown))}")
+        values: dict[str, np.ndarray] = {}
+        for k in self.design_parameters:
+            if k in params:
+                values[k] = np.asarray(params[k], dtype=float)
+            elif k in self.design_defaults:
+                values[k] = np.asarray(self.design_defaults[k], dtype=float)
+            else:
+                raise TypeError(f"{type(self).__name__}: missing design parameter {k!r}")
+        for k, v in self.fixed_parameters.items():
+            values[k] = np.asarray(params.get(k, v), dtype=float)
+        self.params = values
+        for k, v in values.items():
+            setattr(self, k, v)
+
+    # ------------------------------------------------------------------ config hooks
+    @classmethod
+    def check_design(cls, design: Mapping[str, float]) -> tuple[str, str] | None:
+        """Return (key, message) if a design is geometrically impossible, else None."""
+        return None
+
+    @property
+    def dof(self) -> int:
+        return len(self.pose_names)
+
+    @property
+    def n_act(self) -> int:
+        return len(self.actuator_names)
+
+    @property
+    def design_shape(self) -> tuple[int, ...]:
+        """Broadcast shape of the design parameters (``()`` for one design)."""
+        return np.broadcast_shapes(*(np.shape(self.params[k]) for k in self.design_parameters))
+
+    # ------------------------------------------------------------------ kinematics
+    def inverse(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def reachable(self, X: np.ndarray) -> np.ndarray:
+        """Boolean mask: the pose can be reached (inverse kinematics has a real solution)."""
+        return np.all(np.isfinite(self.inverse(X)), axis=-1)
+
+    def forward(self, Q: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def jacobian(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def mass_matrix(self, X: np.ndarray) -> np.ndarray:
+        raise NotImplementedError(f"mechanism {self.name!r} has no dynamic model")
+
+    # ------------------------------------------------------------------ indices
+    def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
+        """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
+        (actuator-space mass matrix of the dynamic index)."""
+        out: dict[str, np.ndarray] = {}
+        if "J" in needs:
+            out["J"] = self.jacobian(X)
+        if "M" in needs:
+            out["M"] = self.mass_matrix(X)
+        return out
+
+    def __repr__(self) -> str:
+        parts = []
+        for k in self.design_parameters:
+            v = self.params[k]
+            parts.append(f"{k}={float(v):g}" if v.ndim == 0 else f"{k}=<{v.shape}>")
+        return f"{type(self).__name__}({', '.join(parts)})"
