@@ -259,7 +259,7 @@ class P4S(Mechanism):
         st = self.branch_state(X)
         c = _col(self.r_b) * E + st["q"][..., None] * st["m"]
         dpt = X[..., None, :] + _col(self.rho) * E
-        half = 0.5 * _p(self.d, 3) * T                                     # (D.., 1, 3, 3)
+        half = 0.5 * _col(self.d) * T                                      # (D.., 3, 3)
         mid = 0.5 * (c + dpt)
         rods = np.stack([mid + half, mid - half], axis=-2)
         return {"platform": np.broadcast_to(X, dpt.shape[:-2] + (3,)), "sliders": c, "rods": rods,
