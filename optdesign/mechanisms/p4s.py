@@ -117,7 +117,8 @@ class P4S(Mechanism):
         b = np.sum(m * w, axis=-1)                                         # (D.., N, 3)
         disc = L ** 2 - np.sum(w * w, axis=-1) + b ** 2
         ok = disc >= 0.0
-        root = np.sqrt(np.where(ok, disc, np.nan))
+        # a pose is reachable only if every branch is: otherwise all strokes NaN
+        root = np.sqrt(np.where(np.all(ok, axis=-1, keepdims=True), disc, np.nan))
         q = b - root
         n = (w - q[..., None] * m) / L[..., None]
         s = root / L
