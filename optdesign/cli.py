@@ -76,4 +76,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # `python -m optdesign.cli`: run the package module, not this __main__ copy,
+    # so that the exception classes the commands raise are the ones caught here
+    from optdesign.cli import main as _main
+
+    sys.exit(_main())
