@@ -125,6 +125,8 @@ class _Reader:
 def _tname(v: Any) -> str:
     if v is None:
         return "nothing (null)"
+    if isinstance(v, list):
+        return f"a list of {len(v)} item{'s' if len(v) != 1 else ''}"
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
             list: "a list", dict: "a mapping"}.get(type(v), type(v).__name__)
 
