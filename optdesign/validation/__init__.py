@@ -1,0 +1,1 @@
+"""Independent checks of our models against other engines (MuJoCo)."""
