@@ -45,6 +45,6 @@ def run(args) -> int:
     elif ok:
         print("  ".join(f"{n} = {x:.12g}" for n, x in zip(names_out, out)))
     else:
-        what = "pose" if args.kin == "ik" else "actuator values"
-        print(f"unreachable: no real solution for these {what} ({design} design)")
+        what = "this pose" if args.kin == "ik" else "these actuator values"
+        print(f"unreachable: no real solution for {what} ({design} design)")
     return 0 if ok else 1
