@@ -1,0 +1,128 @@
+"""The basic commands: ik, fk, evaluate (table), atlas, validate-config, usage errors."""
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from optdesign.cli import build_parser, main
+from optdesign.mechanisms import get
+
+from conftest import CONFIGS
+
+PAPER = str(CONFIGS / "p4s_paper.yaml")
+P4S = get("p4s")
+BEFORE = dict(r_a=0.25, r_b=0.67, L=0.38, d=0.12, phi=np.radians(30.0))
+
+
+def _run(capsys, args):
+    rc = main(args)
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err
+
+
+def test_help_lists_the_basic_commands():
+    text = build_parser().format_help()
+    for cmd in ("evaluate", "atlas", "ik", "fk", "validate-config"):
+        assert cmd in text
+
+
+def test_ik_and_fk_round_trip(capsys):
+    rc, out, err = _run(capsys, ["ik", PAPER, "--design", "before", "0.02", "0.01", "0.576", "--json"])
+    assert rc == 0 and err == ""
+    rec = json.loads(out)
+    assert rec["reachable"] is True and rec["design"] == "before"
+    q = [rec["output"][k] for k in ("l1", "l2", "l3")]
+    np.testing.assert_allclose(q, P4S(**BEFORE).inverse(np.array([[0.02, 0.01, 0.576]]))[0], rtol=1e-15)
+    rc, out, _ = _run(capsys, ["fk", PAPER, "--design", "before", *map(repr, q), "--json"])
+    assert rc == 0
+    x = json.loads(out)["output"]
+    np.testing.assert_allclose([x["x"], x["y"], x["z"]], [0.02, 0.01, 0.576], atol=1e-12)
+
+
+def test_ik_plain_text(capsys):
+    rc, out, _ = _run(capsys, ["ik", PAPER, "--design", "before", "0", "0", "0.592"])
+    assert rc == 0
+    # Table 1 pose 1 with the before dimensions: 0.4316 m (the table prints 0.42)
+    assert out.strip() == "l1 = 0.431582777507  l2 = 0.431582777507  l3 = 0.431582777507"
+
+
+def test_ik_unreachable_pose(capsys):
+    rc, out, err = _run(capsys, ["ik", PAPER, "0", "0", "3"])
+    assert rc == 1
+    assert out.startswith("unreachable")
+    rc, out, _ = _run(capsys, ["fk", PAPER, "--json", "0", "0", "5"])
+    assert rc == 1
+    assert json.loads(out)["reachable"] is False and json.loads(out)["output"]["x"] is None
+
+
+@pytest.mark.parametrize("args,words", [
+    (["ik", PAPER, "0", "0"], "expected 3 values"),
+    (["fk", PAPER, "--design", "nope", "0.4", "0.4", "0.4"], "no design named 'nope'"),
+    (["ik", PAPER, "nan", "0", "0.5"], "expected finite numbers"),
+    (["atlas", PAPER, "--resolution", "1"], "--resolution"),
+    (["evaluate", PAPER, "--design", "middle"], "no design named 'middle'"),
+])
+def test_usage_errors_one_line(capsys, args, words):
+    rc, out, err = _run(capsys, args)
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("optdesign: error: ") and words in lines[0]
+    assert "Traceback" not in err
+
+
+def test_evaluate_table(capsys):
+    rc, out, err = _run(capsys, ["evaluate", PAPER])
+    assert rc == 0 and err == ""
+    assert "121 points" in out
+    rows = {tuple(c.strip() for c in line.strip("|").split("|")[:2]): line for line in out.splitlines() if line.startswith("| ")}
+    line = rows[("after", "stiffness")]
+    assert "0.3523" in line and "0.3522" in line and "+0.02%" in line
+    assert "-19.22%" in rows[("before", "dynamic")]
+
+
+def test_evaluate_one_design_json(capsys):
+    rc, out, _ = _run(capsys, ["evaluate", PAPER, "--design", "after", "--json"])
+    assert rc == 0
+    d = json.loads(out)["designs"]
+    assert list(d) == ["after"]
+    assert set(d["after"]) >= {"dynamic", "stiffness", "isotropy", "reachable_fraction"}
+    assert set(d["after"]["dynamic"]) >= {"mean", "min", "max"}
+
+
+def test_atlas_writes_csv_and_pngs(tmp_path, capsys):
+    rc, out, err = _run(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path)])
+    assert rc == 0 and err == ""
+    folder = tmp_path / "p4s_paper-after"
+    with open(folder / "local_indices.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 121
+    assert set(rows[0]) == {"x", "y", "z", "reachable", "dynamic", "stiffness", "isotropy"}
+    assert all(r["z"] == "0.57" and r["reachable"] == "1" for r in rows)
+    # the local values of the CSV average to the global indices of `evaluate`
+    means = {k: np.mean([float(r[k]) for r in rows]) for k in ("dynamic", "stiffness", "isotropy")}
+    assert means["dynamic"] == pytest.approx(15.756576240, rel=1e-8)
+    assert means["stiffness"] == pytest.approx(0.352279354, rel=1e-8)
+    assert means["isotropy"] == pytest.approx(4.537952468, rel=1e-8)
+    # the centre point: an independent local evaluation
+    m = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=np.radians(35.0))
+    centre = next(r for r in rows if float(r["x"]) == 0 and float(r["y"]) == 0)
+    J = m.jacobian(np.array([[0.0, 0.0, 0.57]]))[0]
+    assert float(centre["stiffness"]) == pytest.approx(np.linalg.svd(J, compute_uv=False).min() ** 2, rel=1e-9)
+    for k in ("dynamic", "stiffness", "isotropy"):
+        png = (folder / f"{k}.png").read_bytes()
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    assert not list(folder.glob(".*.tmp"))
+
+
+def test_atlas_resolution_and_no_plots(tmp_path, capsys):
+    rc, _, _ = _run(capsys, ["atlas", PAPER, "--design", "before", "--out", str(tmp_path), "--resolution", "5", "--no-plots"])
+    assert rc == 0
+    folder = tmp_path / "p4s_paper-before"
+    with open(folder / "local_indices.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 25
+    assert sorted({float(r["x"]) for r in rows}) == pytest.approx([-0.05, -0.025, 0.0, 0.025, 0.05])
+    assert not list(folder.glob("*.png"))
