@@ -37,7 +37,8 @@ def atlas_plane(cfg: Config, resolution: int | None = None, fixed: dict[str, flo
         axes[a] = (v, v)
     n = resolution or (None if (ws.sampling == "grid" and ws.type == "box" and len(free) <= 2) else 41)
     spec = WorkspaceSpec(type="box", axes=axes, sampling="grid",
-                         step=ws.step if n is None else None, points_per_axis=n)
+                         step=ws.step if n is None else None,
+                         points_per_axis=n if n is not None else ws.points_per_axis)
     return sample(spec, names)
 
 
