@@ -61,12 +61,19 @@ def sigma_min(A: np.ndarray) -> np.ndarray:
     return np.where(good, s[..., -1], 0.0)
 
 
+def _full_rank(s: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """Numerically full rank (numpy.linalg.matrix_rank's tolerance): a matrix
+    whose smallest singular value is round-off of the largest counts as singular."""
+    tol = s[..., 0] * max(A.shape[-2:]) * np.finfo(float).eps
+    return s[..., -1] > tol
+
+
 def cond_2(A: np.ndarray) -> np.ndarray:
     """sigma_max / sigma_min (the literal eq. 36); inf where singular."""
     s, good = singular_values(A)
     with np.errstate(divide="ignore", invalid="ignore"):
         c = s[..., 0] / s[..., -1]
-    return np.where(good & (s[..., -1] > 0), c, np.inf)
+    return np.where(good & _full_rank(s, A), c, np.inf)
 
 
 def cond_fro(A: np.ndarray) -> np.ndarray:
@@ -77,7 +84,7 @@ def cond_fro(A: np.ndarray) -> np.ndarray:
     s, good = singular_values(A)
     with np.errstate(divide="ignore", invalid="ignore"):
         c = np.sqrt(np.sum(s * s, axis=-1) * np.sum(1.0 / (s * s), axis=-1))
-    return np.where(good & (s[..., -1] > 0) & np.isfinite(c), c, np.inf)
+    return np.where(good & _full_rank(s, A) & np.isfinite(c), c, np.inf)
 
 
 @dataclass(frozen=True)
