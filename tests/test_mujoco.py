@@ -117,3 +117,25 @@ def test_simulation_detects_a_one_percent_inertia_error(paper_config):
     wrong = _mech(paper_config, "before", rod_Ixx=0.0223 * 1.01)
     r = simulate(mech, paper_trajectory(), 0.1, force_model=wrong)
     assert 1e6 * r["error"].max() > 10 * TRACK_PAPER_UM
+
+
+def test_validate_dynamics_command(tmp_path, monkeypatch, capsys):
+    import json
+
+    from optdesign.cli import main
+
+    cfg = str(_paper().source)
+    monkeypatch.chdir(tmp_path)
+    rc = main(["validate-dynamics", cfg, "--design", "after", "--duration", "0.02",
+               "--large-duration", "0.05", "--points", "5", "--out", "v"])
+    assert rc == 0
+    s = json.loads((tmp_path / "v" / "summary.json").read_text())
+    for path in ("paper", "large"):
+        assert s["paths"][path]["max_relative_difference"] < REL_TOL
+        assert s["paths"][path]["max_tracking_error_um"] < TRACK_LARGE_UM
+    for f in ("forces.png", "tracking.png"):
+        assert (tmp_path / "v" / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "max |diff| / peak" in capsys.readouterr().out
+    rc = main(["validate-dynamics", cfg, "--design", "nope"])
+    assert rc == 2
+    assert capsys.readouterr().err.count("\n") == 1

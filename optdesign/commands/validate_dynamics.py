@@ -1,0 +1,172 @@
+"""optdesign validate-dynamics CONFIG --design NAME [--out DIR]: our dynamics against MuJoCo.
+
+Runs the two comparisons of ``optdesign.validation.mujoco_p4s`` on the
+paper's path (x = y = 0.001 sin(40 pi t)) and on a larger one, prints the
+agreement numbers and writes ``forces.png`` (the actuator forces from our
+model and from MuJoCo, as the paper's figures 9 and 10), ``tracking.png``
+(the platform's deviation in MuJoCo's simulation driven by our forces) and
+``summary.json`` into DIR (default ``validation/<design>``).
+"""
+from __future__ import annotations
+
+import io
+import math
+
+COMMAND = "validate-dynamics"
+
+
+def register(sub):
+    p = sub.add_parser(COMMAND, help="check the dynamic model against MuJoCo (inverse dynamics and simulation)")
+    p.add_argument("config", help="YAML config file")
+    p.add_argument("--design", required=True, metavar="NAME", help="a named design of the config")
+    p.add_argument("--out", metavar="DIR", default=None, help="output folder (default: validation/<design>)")
+    p.add_argument("--z", type=float, default=None,
+                   help="height of the paths' centre in m (default: the middle of the workspace's z range)")
+    p.add_argument("--duration", type=float, default=0.1, help="seconds of the paper's path (default 0.1)")
+    p.add_argument("--large-duration", type=float, default=1.0, help="seconds of the larger path (default 1.0)")
+    p.add_argument("--points", type=int, default=201, help="poses per path for the inverse comparison (default 201)")
+    p.add_argument("--timestep", type=float, default=None, help="simulation step in s (default 1e-4)")
+    p.set_defaults(func=run)
+
+
+def _check_args(args):
+    from ..cli import UsageError
+
+    for name in ("duration", "large_duration"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and 0 < v <= 60):
+            raise UsageError(f"--{name.replace('_', '-')}: expected a duration in (0, 60] s, got {v:g}")
+    if not 2 <= args.points <= 100_000:
+        raise UsageError(f"--points: expected 2 to 100000, got {args.points}")
+    if args.timestep is not None and not (math.isfinite(args.timestep) and 1e-7 <= args.timestep <= 1e-2):
+        raise UsageError(f"--timestep: expected 1e-7 to 1e-2 s, got {args.timestep:g}")
+    if args.z is not None and not math.isfinite(args.z):
+        raise UsageError(f"--z: expected a finite height, got {args.z:g}")
+
+
+def run(args) -> int:
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+
+    from ..cli import UsageError
+    from ..io import atomic_write_bytes, atomic_write_json
+    from ._common import design_names, fmt, open_config, table
+
+    _check_args(args)
+    cfg = open_config(args.config)
+    if cfg.mechanism != "p4s":
+        raise UsageError(f"{cfg.source}: mechanism: validate-dynamics has a MuJoCo model of p4s only, got {cfg.mechanism!r}")
+    design_names(cfg, [args.design])
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        raise UsageError("MuJoCo is not installed; install the validation extra: pip install 'optdesign[validation]'") from None
+    from ..validation import mujoco_p4s as mv
+
+    mech = cfg.build(args.design)
+    z = args.z if args.z is not None else 0.5 * sum(cfg.workspace.axes["z"])
+    out = Path(args.out) if args.out else Path("validation") / args.design
+    sim_kw = {"timestep": args.timestep} if args.timestep else {}
+    if args.timestep:
+        sim_kw["solref"] = (2 * args.timestep, 1.0)
+    paths = [(mv.paper_trajectory(z), args.duration), (mv.large_trajectory(z), args.large_duration)]
+    results = {}
+    try:
+        for traj, t_end in paths:
+            t = np.linspace(0.0, t_end, args.points)
+            X, V, A = traj(t)
+            if not np.all(mech.reachable(X)):
+                print(f"optdesign: error: design {args.design!r} cannot follow the {traj.name} path "
+                      f"({traj.describe()}): a pose is out of reach", file=sys.stderr)
+                return 1
+            inv = mv.inverse_dynamics(mech, X, V, A)
+            sim = mv.simulate(mech, traj, t_end, **sim_kw)
+            results[traj.name] = (traj, t, inv, sim)
+    except ValueError as exc:
+        print(f"optdesign: error: {exc}", file=sys.stderr)
+        return 1
+
+    rows = []
+    summary = {"config": cfg.source, "design": args.design, "parameters": cfg.design(args.design),
+               "timestep": sim_kw.get("timestep", mv.SIM_TIMESTEP), "paths": {}}
+    for name, (traj, t, inv, sim) in results.items():
+        peak = float(np.abs(inv["ours"]).max())
+        rel = float(np.abs(inv["forces"] - inv["ours"]).max() / peak)
+        err_um = float(1e6 * sim["error"].max())
+        rows.append([name, fmt(peak, 2), f"{rel:.2e}", f"{inv['loop_gap'].max():.1e}",
+                     f"{inv['residual'].max():.1e}", f"{err_um:.3f}", f"{sim['max_loop_gap']:.1e}"])
+        summary["paths"][name] = {
+            "path": traj.describe(), "duration_s": float(t[-1]), "points": len(t),
+            "peak_force_N": peak, "max_relative_difference": rel,
+            "max_loop_gap_m": float(inv["loop_gap"].max()),
+            "max_unbalanced_passive_force": float(inv["residual"].max()),
+            "max_tracking_error_um": err_um, "final_tracking_error_um": float(1e6 * sim["error"][-1]),
+            "simulation_max_loop_gap_m": float(sim["max_loop_gap"]),
+            "simulation_max_platform_rotation_rad": float(sim["max_platform_rotation"]),
+            "simulation_max_rod_spin_rad_s": float(sim["max_rod_spin"]),
+        }
+    print(f"{cfg.source}: design {args.design}, MuJoCo {mujoco.__version__}, simulation step "
+          f"{summary['timestep']:g} s (RK4)")
+    print(table(["path", "peak force (N)", "max |diff| / peak", "loop gap (m)", "unbalanced (N)",
+                 "tracking error (um)", "sim. loop gap (m)"], rows))
+
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(out / "forces.png", _forces_figure(results, args.design))
+    atomic_write_bytes(out / "tracking.png", _tracking_figure(results, args.design))
+    atomic_write_json(out / "summary.json", summary)
+    print(f"wrote {out / 'forces.png'}, {out / 'tracking.png'}, {out / 'summary.json'}")
+    return 0
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _forces_figure(results, design) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(results), 3, figsize=(14, 3.6 * len(results)), squeeze=False)
+    for row, (name, (traj, t, inv, _)) in zip(axes, results.items()):
+        for k in range(3):
+            row[0].plot(t, inv["ours"][:, k], label=f"l{k + 1}")
+            row[1].plot(t, inv["forces"][:, k], label=f"l{k + 1}")
+            row[2].plot(t, inv["forces"][:, k] - inv["ours"][:, k], label=f"l{k + 1}")
+        row[0].set_title(f"{name}: ours (eq. 23), as fig. 9")
+        row[1].set_title(f"{name}: MuJoCo inverse dynamics, as fig. 10")
+        row[2].set_title(f"{name}: MuJoCo - ours")
+        for ax, lab in zip(row, ("force (N)", "force (N)", "difference (N)")):
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel(lab)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+    fig.suptitle(f"actuator forces, design {design}")
+    fig.tight_layout()
+    return _png(fig)
+
+
+def _tracking_figure(results, design) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(results), figsize=(6 * len(results), 3.8), squeeze=False)
+    for ax, (name, (traj, _, _, sim)) in zip(axes[0], results.items()):
+        ax.plot(sim["t"], 1e6 * sim["error"])
+        ax.set_title(f"{name}: {traj.describe()}", fontsize=8)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("|platform - commanded| (um)")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"MuJoCo simulation driven by our actuator forces, design {design}")
+    fig.tight_layout()
+    return _png(fig)
