@@ -232,10 +232,15 @@ def twist_space_dimension(chains: Sequence, tol: float = 1e-9, length_scale: flo
     ragged bases, every chain contributes its 6 right singular vectors weighted
     by 1 where the singular value is below the tolerance and 0 elsewhere, and
     the union's rank gives ``dof = 6 - rank``.  Vectorized (no loop over points).
+    Configurations with non-finite twists (unreachable poses) get -1.
     """
     rows = []
+    good = True
     for c in chains:
         C = _scaled(np.asarray(c, dtype=float), length_scale)
+        ok = np.all(np.isfinite(C), axis=(-1, -2))
+        good = good & ok
+        C = np.where(ok[..., None, None], C, 0.0)
         M = C @ DELTA
         _, sv, vt = np.linalg.svd(M)                            # vt (..., 6, 6)
         k = sv.shape[-1]
@@ -246,4 +251,4 @@ def twist_space_dimension(chains: Sequence, tol: float = 1e-9, length_scale: flo
         # the constraint wrenches (scaled coordinates) are the rows of vt with null == True
         rows.append(vt * null[..., :, None])
     U = np.concatenate(rows, axis=-2)
-    return 6 - rank(U, tol)
+    return np.where(good, 6 - rank(U, tol), -1)
