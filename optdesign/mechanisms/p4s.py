@@ -7,7 +7,7 @@ Geometry (section 1.1, with the sign fix recorded in docs/reproduction.md):
   ``u_i = r_b e_i`` with ``e_i = (cos gamma_i, sin gamma_i, 0)`` and running along
   ``m_i = R(z, alpha_i) R(x, +phi) y = -cos(phi) e_i + sin(phi) z`` (inward and
   upward; alpha_i = gamma_i + 90 deg).  The paper prints R(x, -phi), with which
-  the rails point outward and no branch reaches the platform;
+  the rails point inward and downward and no branch reaches the platform;
 * the slider sits at ``c_i = u_i + q_i m_i`` (q_i the stroke, eq. 3);
 * the 4S parallelogram of each branch is equivalent to one rod c_i d_i of length
   L (eq. 4); its top midpoint is ``d_i = p + rho e_i`` with
