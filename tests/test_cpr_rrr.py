@@ -260,3 +260,18 @@ def test_config_evaluates_and_linear_inputs_are_isotropic():
     for rec in lin.values():
         for k in ("isotropy", "dexterity", "manipulability"):
             assert rec[k]["min"] == pytest.approx(1.0) and rec[k]["max"] == pytest.approx(1.0)
+
+
+def test_optimization_config_loads_and_centring_the_offsets_helps():
+    """configs/cpr_rrr_opt.yaml: placing theta = 90 deg at the bed centre
+    (f = w = 0.1 m) raises both indices over the start design, as the symmetry
+    of sin^2 theta about 90 deg says it must."""
+    from optdesign.config import load_config
+    from optdesign.evaluate import evaluate_named
+
+    cfg = load_config(CONFIG.parent / "cpr_rrr_opt.yaml")
+    assert [v.name for v in cfg.free_variables] == ["n", "f", "w"]
+    res = evaluate_named(cfg)
+    assert res["centred"]["reachable_fraction"] == res["start"]["reachable_fraction"] == 1.0
+    for k in ("dexterity", "stiffness"):
+        assert res["centred"][k]["mean"] > res["start"][k]["mean"]
