@@ -21,6 +21,8 @@ dexterity       max      1 / (||J||_F ||J^-1||_F) (normalized by the dimension n
                          ``normalized`` convention multiplies by n)
 manipulability  max      sqrt(det(J J^T))
 driving         max      sqrt(det(J^T J))
+axis_stiffness  max      k (J^T J)_aa: diagonal entry ``axis`` (option, 0-based) of
+                         K = k J^T J, the stiffness along one task axis (3-SPS-S eq. 12)
 ==============  =======  ==============================================================
 """
 from __future__ import annotations
@@ -135,6 +137,13 @@ def _driving(M, J, convention, options):
     return np.where(good, np.sqrt(np.maximum(det, 0.0)), 0.0)
 
 
+def _axis_stiffness(M, J, convention, options):
+    k = options.get("k", 1.0)
+    a = int(options.get("axis", 0))
+    Jc, good = _finite_stack(J)
+    return np.where(good, k * np.sum(Jc[..., :, a] ** 2, axis=-1), 0.0)
+
+
 INDEX_KINDS: dict[str, IndexKind] = {
     "dynamic": IndexKind("dynamic", "M", "min", (), None, _dynamic,
                          "dynamic index sigma_max(M) = sqrt(lambda_max(M^T M)) (eq. 28)"),
@@ -146,6 +155,8 @@ INDEX_KINDS: dict[str, IndexKind] = {
                            "dexterity 1/(||J||_F ||J^-1||_F)"),
     "manipulability": IndexKind("manipulability", "J", "max", (), None, _manip, "manipulability sqrt(det(J J^T))"),
     "driving": IndexKind("driving", "J", "max", (), None, _driving, "driving index sqrt(det(J^T J))"),
+    "axis_stiffness": IndexKind("axis_stiffness", "J", "max", (), None, _axis_stiffness,
+                                "stiffness along one task axis, k (J^T J)_aa (options: axis, k)"),
 }
 
 
