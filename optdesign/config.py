@@ -200,7 +200,8 @@ class OptimizerSpec:
     generations: int = 100
     crossover_probability: float = 0.8
     elites: int = 2
-    mutation_probability: float = 0.1
+    mutation_probability: float = 0.2
+    fitness_scaling: str = "rank"
     seed: int = 1
     weights: dict[str, float] = field(default_factory=dict)
     normalization: str = "sense"  # or "paper_literal"
@@ -261,7 +262,7 @@ _TOP_KEYS = {"mechanism", "name", "description", "parameters", "design_variables
 _WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
             "center", "unit"}
 _SAMPLING = {"grid", "sobol", "halton", "lhs", "random"}
-_OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites",
+_OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
              "mutation_probability", "seed", "weights", "normalization", "pareto",
              "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission"}
 
@@ -538,6 +539,8 @@ def _optimizer(r: _Reader, opt: Any, dvs: dict, indices: dict) -> OptimizerSpec:
             kw[key] = x
     if "seed" in opt:
         kw["seed"] = r.integer(opt["seed"], f"{path}.seed", minimum=0, maximum=2**32 - 1)
+    if "fitness_scaling" in opt:
+        kw["fitness_scaling"] = r.string(opt["fitness_scaling"], f"{path}.fitness_scaling", choices={"rank", "linear"})
     weights = {k: 1.0 for k in indices}
     if "weights" in opt:
         wm = r.mapping(opt["weights"], f"{path}.weights")

@@ -1,0 +1,59 @@
+"""optdesign run CONFIG | --resume RUN_DIR: run (or finish) an optimization."""
+from __future__ import annotations
+
+import sys
+
+COMMAND = "run"
+
+
+def register(sub):
+    p = sub.add_parser(COMMAND, help="run a config's optimization into a new run folder (or --resume one)")
+    p.add_argument("config", nargs="?", help="YAML config file")
+    p.add_argument("--resume", metavar="RUN_DIR", help="finish an interrupted run in its folder")
+    p.add_argument("--seed", type=int, default=None, help="random seed (default: the config's optimizer.seed)")
+    p.add_argument("--out", default="runs", metavar="DIR", help="parent folder of run folders (default: runs)")
+    p.add_argument("--name", default=None, help="run folder name prefix (default: the config's name)")
+    p.add_argument("--no-pareto", action="store_true", help="skip the NSGA-II/III Pareto runs")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def execute(args, after=None, cfg=None) -> int:
+    from ._common import open_config
+    from ..cli import UsageError
+    from ..optimize.pipeline import Interrupted, Progress
+    from ..optimize.runner import resume_run, start_run, summary_line
+    from ..runs import RunFolderError
+
+    progress = Progress(False if args.quiet else None)
+    if args.resume and args.config:
+        raise UsageError("run: give a CONFIG or --resume RUN_DIR, not both")
+    if args.seed is not None and not 0 <= args.seed < 2 ** 32:
+        raise UsageError(f"--seed: expected an integer in [0, 2^32), got {args.seed}")
+    try:
+        if args.resume:
+            res = resume_run(args.resume, progress)
+        else:
+            cfg = cfg if cfg is not None else open_config(args.config)
+            res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto)
+    except RunFolderError as exc:
+        raise UsageError(str(exc)) from None
+    except Interrupted as exc:
+        print("optdesign: run interrupted; the last finished generation is saved. "
+              "Finish it with: optdesign run --resume <RUN_DIR> (see runs/)", file=sys.stderr)
+        return 130 if exc.signum == 2 else 143
+    except RuntimeError as exc:
+        print(f"optdesign: run failed: {exc}", file=sys.stderr)
+        return 1
+    print(summary_line(res))
+    if after is not None:
+        after(res)
+    return 0
+
+
+def run(args) -> int:
+    if not args.config and not args.resume:
+        from ..cli import UsageError
+
+        raise UsageError("run: expected a CONFIG file or --resume RUN_DIR")
+    return execute(args)

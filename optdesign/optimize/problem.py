@@ -1,0 +1,195 @@
+"""The pymoo Problem over a config's free design variables.
+
+One ``_evaluate`` call evaluates the whole population (designs × workspace
+points) through :func:`optdesign.evaluate.evaluate`.  Objectives are built from
+*objective terms*; constraints (``G <= 0`` feasible) are
+
+* ``reach``: the fraction of workspace points the design cannot reach;
+* ``singularity``: ``max_W cond(J) / threshold - 1`` (the largest local
+  condition number of the Jacobian over W against the config's
+  ``singularity_threshold``), so designs whose workspace meets or nears a
+  singularity are infeasible rather than dominating the normalization;
+* ``finite``: 1 where a global index is not finite (0 otherwise);
+* ``stroke_low`` / ``stroke_high``: actuator values outside ``stroke_limits``
+  anywhere in W (m), when the config sets them.
+
+Every evaluation's indices and constraint values are kept in ``out`` (as
+pymoo "extra" arrays) so the history records them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from pymoo.core.problem import Problem
+
+from ..config import Config
+from ..evaluate import evaluate
+from ..indices import cond_2
+from ..workspace import Workspace
+from .objectives import EXTRA_OBJECTIVES
+
+__all__ = ["Term", "DesignProblem", "index_term", "extra_term", "weighted_sum_term"]
+
+
+@dataclass(frozen=True)
+class Term:
+    """One objective to minimize, as a function of the global index means.
+
+    kind: ``index`` (``sign * sigma_name``), ``extra`` (a compactness
+    objective), or ``weighted`` (the normalized weighted sum of eq. 38-40).
+    """
+
+    kind: str
+    name: str
+    sign: float = 1.0
+    lo: dict | None = None        # per index: sigma_min over the bounds (weighted)
+    hi: dict | None = None        # per index: sigma_max over the bounds (weighted)
+    weights: dict | None = None
+    senses: dict | None = None
+    literal: bool = False          # the paper's literal eq. 38 (every term as if minimized)
+
+    def label(self) -> str:
+        if self.kind == "index":
+            return f"{'-' if self.sign < 0 else ''}{self.name}"
+        return self.name
+
+
+def index_term(name: str, sense: str) -> Term:
+    """Minimize ``sigma`` (sense min) or ``-sigma`` (sense max)."""
+    return Term("index", name, 1.0 if sense == "min" else -1.0)
+
+
+def extra_term(name: str) -> Term:
+    return Term("extra", name, 1.0 if EXTRA_OBJECTIVES[name][1] == "min" else -1.0)
+
+
+def weighted_sum_term(lo: dict, hi: dict, weights: dict, senses: dict, literal: bool = False) -> Term:
+    return Term("weighted", "weighted_sum", 1.0, dict(lo), dict(hi), dict(weights), dict(senses), literal)
+
+
+def normalized_terms(values: dict, lo: dict, hi: dict, senses: dict, literal: bool = False) -> dict:
+    """f_i of eq. 38 for each index: (sigma - sigma_min)/(sigma_max - sigma_min).
+
+    With ``literal=False`` an index to be maximized is flipped,
+    (sigma_max - sigma)/(sigma_max - sigma_min), so that every term is 0 at the
+    index's best value and 1 at its worst, and the sum is minimized.  With
+    ``literal=True`` eq. 38 is applied as printed to every index, which
+    rewards a *low* stiffness.
+    """
+    out = {}
+    for k in lo:
+        span = hi[k] - lo[k]
+        v = np.asarray(values[k], dtype=float)
+        f = (v - lo[k]) / span if span > 0 else np.zeros_like(v)
+        if senses[k] == "max" and not literal:
+            f = 1.0 - f
+        out[k] = f
+    return out
+
+
+def weighted_sum(values: dict, term: Term) -> np.ndarray:
+    f = normalized_terms(values, term.lo, term.hi, term.senses, term.literal)
+    return sum(term.weights[k] * f[k] for k in f)
+
+
+class DesignProblem(Problem):
+    """pymoo Problem: free design variables of a config -> objective terms."""
+
+    CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
+
+    def __init__(self, config: Config, terms: Sequence[Term], workspace: Workspace):
+        self.config = config
+        self.terms = list(terms)
+        self.workspace = workspace
+        self.free = [v.name for v in config.free_variables]
+        if not self.free:
+            from ..config import ConfigError
+
+            raise ConfigError(config.source, "design_variables", "no free design variable: give at least one 'bounds'")
+        xl = np.array([config.design_variables[k].bounds[0] for k in self.free])
+        xu = np.array([config.design_variables[k].bounds[1] for k in self.free])
+        self.constraint_names = list(self.CONSTRAINTS[:3])
+        if config.optimizer.stroke_limits is not None:
+            self.constraint_names += list(self.CONSTRAINTS[3:])
+        self.n_evaluations = 0
+        super().__init__(n_var=len(self.free), n_obj=len(self.terms), n_ieq_constr=len(self.constraint_names),
+                         xl=xl, xu=xu, vtype=float)
+
+    # ------------------------------------------------------------------ helpers
+    def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """Design vectors (D, n_var) -> parameter arrays (D,), SI, fixed ones filled in."""
+        X = np.atleast_2d(X)
+        out = {}
+        for k, dv in self.config.design_variables.items():
+            out[k] = X[:, self.free.index(k)] if k in self.free else np.full(X.shape[0], dv.value)
+        return out
+
+    def vector(self, design: dict) -> np.ndarray:
+        return np.array([design[k] for k in self.free], dtype=float)
+
+    def index_values(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """Global index means, constraint values and reachable fraction of designs X."""
+        cfg = self.config
+        designs = self.designs(X)
+        ev = evaluate(cfg, designs, self.workspace)
+        vals = {k: ev.summary[k]["mean"] for k in cfg.indices}
+        # largest local condition number over W: the isotropy index if the config
+        # has one (a condition number of J), else cond_2(J) computed here
+        iso = [k for k, s in cfg.indices.items() if s.kind == "isotropy"]
+        if iso:
+            cmax = ev.summary[iso[0]]["max"]
+        else:
+            from ..mechanisms import get
+
+            mech = get(cfg.mechanism)(**{**cfg.parameters, **{k: v[:, None] for k, v in designs.items()}})
+            with np.errstate(all="ignore"):
+                c = cond_2(mech.jacobian(self.workspace.X))
+            cmax = np.max(np.where(ev.reachable, c, 0.0), axis=-1)
+        cons = {
+            "reach": 1.0 - ev.reachable_fraction,
+            "singularity": np.where(np.isfinite(cmax), cmax / cfg.optimizer.singularity_threshold - 1.0, 1.0),
+            "finite": np.where(np.all([np.isfinite(v) for v in vals.values()], axis=0), 0.0, 1.0),
+        }
+        if cfg.optimizer.stroke_limits is not None:
+            from ..mechanisms import get
+
+            lo, hi = cfg.optimizer.stroke_limits
+            mech = get(cfg.mechanism)(**{**cfg.parameters, **{k: v[:, None] for k, v in designs.items()}})
+            with np.errstate(all="ignore"):
+                Q = mech.inverse(self.workspace.X)
+            qmin = np.nanmin(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
+            qmax = np.nanmax(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
+            cons["stroke_low"] = np.where(np.isfinite(qmin), lo - qmin, 1.0)
+            cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - hi, 1.0)
+        for k, (fn, _, _, _) in EXTRA_OBJECTIVES.items():
+            if any(t.kind == "extra" and t.name == k for t in self.terms):
+                vals[k] = np.asarray(fn(designs), dtype=float)
+        return {"values": vals, "constraints": cons, "reachable_fraction": ev.reachable_fraction}
+
+    def objectives(self, values: dict) -> np.ndarray:
+        cols = []
+        for t in self.terms:
+            if t.kind in ("index", "extra"):
+                cols.append(t.sign * np.asarray(values[t.name], dtype=float))
+            else:
+                cols.append(weighted_sum(values, t))
+        return np.stack(cols, axis=-1)
+
+    # ------------------------------------------------------------------ pymoo
+    def _evaluate(self, X, out, *args, **kwargs):
+        res = self.index_values(X)
+        F = self.objectives(res["values"])
+        G = np.stack([res["constraints"][k] for k in self.constraint_names], axis=-1)
+        bad = ~np.all(np.isfinite(F), axis=-1)
+        # an objective that is not finite is recorded as infeasible (constraint
+        # 'finite'); pymoo needs finite numbers to sort, so such rows get a large
+        # finite objective that never competes with a feasible design
+        G[bad, self.constraint_names.index("finite")] = np.maximum(G[bad, self.constraint_names.index("finite")], 1.0)
+        F = np.where(np.isfinite(F), F, 1e300)
+        self.n_evaluations += X.shape[0]
+        out["F"] = F
+        out["G"] = G
+        for k, v in res["values"].items():
+            out[f"index_{k}"] = np.asarray(v, dtype=float)
