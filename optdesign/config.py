@@ -75,11 +75,14 @@ class _Reader:
     def number(self, value: Any, path: str, *, positive=False, nonneg=False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(path, f"expected a number, got {_tname(value)}")
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:  # an integer beyond the float range
+            self.fail(path, f"expected a number of sensible size, got {_show(value)}")
         if not math.isfinite(x):
             self.fail(path, f"expected a finite number, got {value!r}")
         if abs(x) > 1e12:
-            self.fail(path, f"expected a number of sensible size, got {value!r}")
+            self.fail(path, f"expected a number of sensible size, got {_show(value)}")
         if positive and x <= 0:
             self.fail(path, f"expected a positive number, got {value!r}")
         if nonneg and x < 0:
@@ -90,9 +93,9 @@ class _Reader:
         if isinstance(value, bool) or not isinstance(value, int):
             self.fail(path, f"expected an integer, got {_tname(value)}")
         if minimum is not None and value < minimum:
-            self.fail(path, f"expected an integer >= {minimum}, got {value}")
+            self.fail(path, f"expected an integer >= {minimum}, got {_show(value)}")
         if maximum is not None and value > maximum:
-            self.fail(path, f"expected an integer <= {maximum}, got {value}")
+            self.fail(path, f"expected an integer <= {maximum}, got {_show(value)}")
         return int(value)
 
     def string(self, value: Any, path: str, choices=None) -> str:
@@ -129,6 +132,13 @@ def _tname(v: Any) -> str:
         return f"a list of {len(v)} item{'s' if len(v) != 1 else ''}"
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
             list: "a list", dict: "a mapping"}.get(type(v), type(v).__name__)
+
+
+def _show(v: Any) -> str:
+    """repr of a value for a message; integers too long to print are described."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10 ** 15:
+        return f"an integer of about {int(abs(v).bit_length() * 0.30103) + 1} digits"
+    return repr(v)
 
 
 def _join(path: str, key) -> str:
@@ -507,7 +517,7 @@ def _workspace(r: _Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             if wtype == "cylinder":
                 total *= int(2 * radius / step + 1) ** 2
             if total > 50_000_000:
-                r.fail(f"{path}.step", f"step {ws['step']} gives {total} grid points; expected at most 50,000,000")
+                r.fail(f"{path}.step", f"step {ws['step']} gives {_show(total)} grid points; expected at most 50,000,000")
     else:
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=50_000_000)
     seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0)
