@@ -61,6 +61,13 @@ class Mechanism:
         """Return (key, message) if a design is geometrically impossible, else None."""
         return None
 
+    @classmethod
+    def check_parameters(cls, params: Mapping[str, float]) -> tuple[str, str] | None:
+        """Return (key, message) if a fixed parameter value is invalid (e.g. a mode
+        switch out of its range), else None.  ``params`` holds only the values the
+        config gives."""
+        return None
+
     @property
     def dof(self) -> int:
         return len(self.pose_names)
