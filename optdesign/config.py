@@ -337,6 +337,9 @@ def _from_mapping(data: Any, source: str) -> Config:
         r.only(pm, "parameters", set(known_fixed))
         for k, v in pm.items():
             params[k] = _param_value(r, v, f"parameters.{k}", mech_cls, k)
+        problem = getattr(mech_cls, "check_parameters", lambda p: None)(params)
+        if problem:
+            r.fail(f"parameters.{problem[0]}", problem[1])
 
     # design variables
     dv_raw = r.mapping(r.require(data, "design_variables", ""), "design_variables")
