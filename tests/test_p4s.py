@@ -449,3 +449,32 @@ def test_evaluate_json_paper_config(capsys):
     assert rel["before"][1] == pytest.approx(-0.142, abs=0.002)
     assert rel["before"][2] == pytest.approx(-0.020, abs=0.002)
     assert d["after"]["paper"]["stiffness"] == 0.3522
+
+
+# ----------------------------------------------------------------------------- dynamics example
+def test_dynamics_example_numbers(tmp_path):
+    """docs/dynamics_example.py (the paper's section 2.4 example) runs and gives
+    the numbers docs/reproduction.md quotes."""
+    import importlib.util
+
+    from conftest import ROOT
+
+    spec = importlib.util.spec_from_file_location("dynamics_example", ROOT / "docs" / "dynamics_example.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    mod.OUT = tmp_path
+    r = mod.main()
+    for f in ("p4s_fig5_velocities.png", "p4s_fig6_accelerations.png", "p4s_fig9_forces.png",
+              "p4s_eq21_gravity_term.png", "p4s_dynamics_example.json"):
+        assert (tmp_path / f).stat().st_size > 0
+    assert r["max_rel_difference_vs_casadi"] < 1e-12
+    assert r["static_force_at_centre_N"] == pytest.approx([40.63] * 3, abs=0.01)
+    assert r["peak_velocity_m_s"] == pytest.approx([0.0404, 0.0148, 0.0551], abs=1e-4)
+    assert r["peak_acceleration_m_s2"] == pytest.approx([5.17, 1.98, 7.00], abs=0.01)
+    assert r["force_max_N"] == pytest.approx([316.9, 142.2, 417.2], abs=0.1)
+    assert r["force_min_N"] == pytest.approx([-237.6, -60.8, -340.2], abs=0.1)
+    assert r["peak_inertial_force_N"] == pytest.approx([277.9, 101.4, 380.3], abs=0.1)
+    assert r["peak_inertial_force_eq23_without_factor_2_N"] == pytest.approx([213.9, 78.0, 292.8], abs=0.1)
+    lo, hi = np.array(r["eq21_extra_term_range_N"])
+    assert np.all(lo > -21.0) and np.all(hi < -20.4)
+    assert r["eq21_extra_power_over_peak_power_vertical"] == pytest.approx(0.48, abs=0.01)
