@@ -32,6 +32,17 @@ def test_names_and_actuators_follow_the_input_type():
         mech(input_type=2)
 
 
+@pytest.mark.parametrize("key, bad", [("input_type: 0 ", "input_type: 2 "), ("elbow: 1 ", "elbow: 0 ")])
+def test_config_rejects_bad_mode_switches(key, bad):
+    from optdesign.config import ConfigError, parse_config
+
+    text = CONFIG.read_text()
+    assert key in text
+    with pytest.raises(ConfigError) as e:
+        parse_config(text.replace(key, bad), "x.yaml")
+    assert e.value.path == "parameters." + key.split(":")[0]
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.floats(-0.08, 0.08), st.floats(-0.08, 0.08), st.sampled_from([ROTARY, LINEAR]))
 def test_forward_inverts_inverse(x, y, kind):

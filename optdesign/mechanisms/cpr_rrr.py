@@ -116,6 +116,14 @@ class CPR_RRR(Mechanism):
         self.actuator_names = ("theta2", "theta1") if self.kind == ROTARY else ("m1", "m2")
 
     @classmethod
+    def check_parameters(cls, params: Mapping[str, float]):
+        if "input_type" in params and params["input_type"] not in (ROTARY, LINEAR):
+            return "input_type", f"expected 0 (rotary inputs) or 1 (linear inputs), got {params['input_type']:g}"
+        if "elbow" in params and params["elbow"] not in (-1.0, 1.0):
+            return "elbow", f"expected +1 or -1 (the RRR assembly mode), got {params['elbow']:g}"
+        return None
+
+    @classmethod
     def check_design(cls, design: Mapping[str, float]):
         if "n" in design and design["n"] <= 0:
             return "n", f"expected a positive height of the R1/R2 axes, got {design['n']:g}"
