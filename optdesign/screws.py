@@ -38,6 +38,7 @@ __all__ = [
     "revolute", "prismatic", "cylindrical", "helical", "spherical",
     "reciprocal_product", "span", "rank", "reciprocal", "constraint_wrenches",
     "platform_twist_space", "same_span", "contains", "joint_rates", "motion_type",
+    "actuation_wrench", "actuation_jacobian",
     "twist_space_dimension",
 ]
 
@@ -210,6 +211,50 @@ def joint_rates(chain, twist) -> tuple[np.ndarray, float]:
     rates = np.einsum("...kj,...j->...k", pinv, np.broadcast_to(t, A.shape[:-1]))
     res = np.linalg.norm(np.einsum("...jk,...k->...j", A, rates) - t, axis=-1)
     return rates, res
+
+
+def actuation_wrench(chain, active: int, tol: float = 1e-9, length_scale: float = 1.0) -> np.ndarray:
+    """The actuation (transmission) wrench of one chain, (6,) unit.
+
+    With the actuated joint ``active`` locked, the chain also transmits a wrench
+    that is reciprocal to all its *passive* joint twists but not to the actuated
+    one (Joshi and Tsai, 2002).  It is found as the part of
+    ``reciprocal(passive twists)`` orthogonal (in the scaled metric) to the
+    chain's constraint wrenches, and is unique up to scale and up to adding
+    constraint wrenches when the chain is not singular.
+    """
+    C = np.atleast_2d(np.asarray(chain, dtype=float))
+    passive = np.delete(C, active, axis=0)
+    Wp = reciprocal(passive, tol, length_scale)
+    Wc = reciprocal(C, tol, length_scale)
+    P = _scaled(Wp, length_scale)
+    if len(Wc):
+        Q = span(_scaled(Wc, length_scale), tol)          # orthonormal (scaled coordinates)
+        P = P - (P @ Q.T) @ Q
+    _, sv, vt = np.linalg.svd(P)
+    if sv.size == 0 or sv[0] <= tol:
+        raise ValueError("the chain has no actuation wrench: the actuated joint is redundant or the chain is singular")
+    w = vt[0].copy()
+    w[3:] *= length_scale
+    return w / np.linalg.norm(w)
+
+
+def actuation_jacobian(chains: Sequence, actives: Sequence[int], tol: float = 1e-9,
+                       length_scale: float = 1.0) -> np.ndarray:
+    """Inverse Jacobian from screws, (n_chains, 6): ``qdot_i = A[i] @ twist``.
+
+    For chain i with actuation wrench W_i, the power balance of the locked
+    passive joints gives ``W_i o twist = (W_i o T_active) qdot_i``, so row i is
+    ``(DELTA W_i) / (W_i o T_active)``.  ``twist`` is the platform twist
+    ``(omega; v)`` at the origin; for a translational platform the columns 3-5
+    are the usual velocity Jacobian.
+    """
+    rows = []
+    for c, a in zip(chains, actives):
+        c = np.atleast_2d(np.asarray(c, dtype=float))
+        W = actuation_wrench(c, a, tol, length_scale)
+        rows.append((DELTA @ W) / reciprocal_product(W, c[a]))
+    return np.stack(rows)
 
 
 def motion_type(T, tol: float = 1e-9, length_scale: float = 1.0) -> tuple[int, int]:

@@ -216,6 +216,32 @@ def test_screw_joint_rates_reproduce_the_jacobian(kind):
             np.testing.assert_allclose(rates[:, joint], J[:, row] @ v, rtol=1e-10, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", [ROTARY, LINEAR])
+def test_actuation_wrenches_eq19_and_the_screw_jacobian(kind):
+    """Linear inputs: the actuation wrench of L1 is the force along X through O
+    (eq. 19); rotary inputs: a force normal to P1 in the YZ plane through the R1
+    axis.  The Joshi-Tsai Jacobian from these wrenches equals J."""
+    m = mech(kind)
+    X = poses(6)
+    L1, L2, L3 = m.joint_twists(X)
+    a = m.actuated_joints()[0]
+    t1 = m.chain_state(X)["theta1"]
+    for k in range(len(X)):
+        W = sc.actuation_wrench(L1[k], a)
+        W = W * np.sign(W[np.argmax(np.abs(W))])
+        if kind == LINEAR:
+            assert sc.same_span(np.concatenate([[W], sc.constraint_wrenches(L1[k])]),
+                                np.array([[1, 0, 0, 0, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1.0]]))
+        else:
+            f = W[:3] / np.linalg.norm(W[:3])
+            assert abs(abs(f @ [0, -np.sin(t1[k]), np.cos(t1[k])]) - 1) < 1e-12
+        chains = [L2[k], L1[k]] if kind == ROTARY else [L1[k], L2[k]]
+        A = sc.actuation_jacobian(chains, [a, a])
+        np.testing.assert_allclose(A[:, 3:5], m.jacobian(X)[k], rtol=1e-10, atol=1e-12)
+        # (the other columns act on twists the platform cannot have: the wrench is
+        # defined up to the constraint wrenches, which do no work on allowed twists)
+
+
 def test_twist_space_over_the_workspace_and_the_rrr_singularity():
     m = mech(l1=0.2, l2=0.2, rrr_base_x=-0.2, rrr_base_y=-0.2)
     g = np.linspace(-0.05, 0.05, 11)

@@ -102,6 +102,14 @@ def test_p4s_parallelogram_chains_leave_three_translations_and_match_eq8():
             np.testing.assert_allclose(W[:, :3], 0, atol=1e-12)          # couples only
         T = sc.platform_twist_space(chains)
         assert sc.motion_type(T) == (0, 3)
+        # Joshi-Tsai inverse Jacobian from the actuation wrenches (slider locked):
+        # its translational columns are eq. 8
+        A = sc.actuation_jacobian(chains, [0, 0, 0])
+        np.testing.assert_allclose(A[:, 3:], J[k], rtol=1e-10, atol=1e-12)
+        # the actuation wrench of a branch is a force along its rod n_i
+        for i, c in enumerate(chains):
+            W = sc.actuation_wrench(c, 0)
+            assert abs(abs(W[:3] @ st["n"][k, i]) - np.linalg.norm(W[:3])) < 1e-9
         # the slider rate that produces a platform translation v is row i of eq. 8's J
         for v in np.eye(3):
             tw = np.concatenate([np.zeros(3), v])
@@ -124,3 +132,11 @@ def test_twist_space_dimension_is_vectorized_and_agrees_with_the_single_version(
     expect = np.array([sc.platform_twist_space([chain[i]]).shape[0] for i in range(n)])
     np.testing.assert_array_equal(dims, expect)
     assert set(dims[:5]) == {2} and set(dims[5:]) == {3}
+
+
+def test_actuation_wrench_rejects_a_redundant_actuator():
+    # a spherical joint's three rotations with the twist of the first repeated:
+    # locking that copy removes no motion, so there is no actuation wrench
+    c = np.concatenate([sc.spherical([0.0, 0, 0]), sc.revolute([1.0, 0, 0], [0, 0, 0])[None]])
+    with pytest.raises(ValueError):
+        sc.actuation_wrench(c, 3)
