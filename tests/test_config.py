@@ -50,7 +50,7 @@ def test_defaults_and_units():
     text = """
 mechanism: p4s
 design_variables:
-  r_a: 250            # plain numbers are SI
+  r_a: 0.25           # plain numbers are SI
   r_b: {value: 670, unit: mm}
   L: {value: 0.38}
   d: 0.12
@@ -59,8 +59,8 @@ workspace: {type: cylinder, radius: 0.04, axes: {z: [0.55, 0.59]}, sampling: sob
 indices: {dynamic: {}, iso: {kind: isotropy}}
 """
     with pytest.raises(ConfigError, match=r"design_variables\.d: expected d < 2 r_a"):
-        parse_config(text.replace("r_a: 250 ", "r_a: 0.05 "))
-    c = parse_config(text.replace("r_a: 250 ", "r_a: 0.25 "), source="t.yaml")
+        parse_config(text.replace("r_a: 0.25 ", "r_a: 0.05 "))
+    c = parse_config(text, source="t.yaml")
     assert c.design("initial")["r_b"] == pytest.approx(0.67)
     assert c.design("initial")["phi"] == 0.5
     assert c.parameters == {}                                 # paper's masses by default
