@@ -221,3 +221,23 @@ def test_load_config_raises_config_error_with_path(tmp_path):
     assert exc.value.path == "indices.dynamic.kind"
     assert "\n" not in str(exc.value)
 
+
+
+def test_joint_stiffness_reaches_the_stiffness_index():
+    """parameters.k is the k of K = J^T k J unless the index sets options.k."""
+    c = parse_config(yaml.safe_dump(_set(["parameters", "k"], 2.0)))
+    assert c.indices["stiffness"].options == {"k": 2.0}
+    d = copy.deepcopy(BASE)
+    d["parameters"]["k"] = 2.0
+    d["indices"]["stiffness"]["options"] = {"k": 5.0}
+    assert parse_config(yaml.safe_dump(d)).indices["stiffness"].options == {"k": 5.0}
+    d["indices"]["stiffness"]["options"] = {"k": -1.0}
+    with pytest.raises(ConfigError, match=r"indices\.stiffness\.options\.k: expected a positive number"):
+        parse_config(yaml.safe_dump(d))
+    from optdesign.evaluate import evaluate
+
+    base = load_config(PAPER)
+    ev1 = evaluate(base, [base.design("after")])
+    ev2 = evaluate(c, [c.design("after")])
+    assert ev2.summary["stiffness"]["mean"][0] == pytest.approx(2.0 * ev1.summary["stiffness"]["mean"][0], rel=1e-12)
+    assert ev2.summary["isotropy"]["mean"][0] == pytest.approx(ev1.summary["isotropy"]["mean"][0], rel=1e-12)
