@@ -1,0 +1,251 @@
+"""Compiled (numba) kernels for the hot paths, with the numpy path as fallback.
+
+The fused 3-P(4S) kernel computes, per design and workspace point, inverse
+kinematics, Jacobian, mass matrix, the local dynamic, stiffness and isotropy
+indices and the reachable mask, and reduces them to the per-design mean, min,
+max and standard deviation over the reachable points, all in one parallel
+pass (see ``docs/performance.md``).
+
+:func:`optdesign.evaluate.evaluate` calls :func:`try_evaluate`; it returns
+``None`` (and the caller keeps the numpy path) when
+
+* the environment variable ``OPTDESIGN_FAST`` is ``0`` (or ``false``/``off``/``no``)
+  or :func:`set_enabled` turned the fast path off,
+* numba cannot be imported or the kernels cannot be compiled,
+* the mechanism is not the 3-P(4S), or an index is not one of ``dynamic``,
+  ``stiffness`` (``lambda_min_K``, ``sqrt_lambda_min_K``) and ``isotropy``
+  (``frobenius``, ``two_norm``), or an index option other than a positive ``k``
+  is set.
+
+Results equal the numpy path's to about 1e-14 relative (closed-form
+eigenvalues against LAPACK), the reachable mask bitwise, and do not depend on
+the number of threads.
+"""
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from contextlib import contextmanager
+
+import numpy as np
+
+__all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "available", "kernels", "import_error",
+           "design_constants", "p4s_local", "p4s_summary", "forward_p4s", "try_evaluate", "SUPPORTED"]
+
+ENV_VAR = "OPTDESIGN_FAST"
+
+#: index kinds and conventions the fused kernel computes (None: the default convention)
+SUPPORTED = {
+    "dynamic": (None,),
+    "stiffness": (None, "lambda_min_K", "sqrt_lambda_min_K"),
+    "isotropy": (None, "frobenius", "two_norm"),
+}
+
+_override: bool | None = None
+_kernels = None
+_import_error: BaseException | None = None
+
+
+def enabled() -> bool:
+    """Whether the fast path may be used (``set_enabled`` first, then ``OPTDESIGN_FAST``)."""
+    if _override is not None:
+        return _override
+    return os.environ.get(ENV_VAR, "1").strip().lower() not in ("0", "false", "off", "no")
+
+
+def set_enabled(value: bool | None) -> None:
+    """Force the fast path on or off for this process; ``None`` returns to the environment variable."""
+    global _override
+    _override = value
+
+
+@contextmanager
+def disabled():
+    """Context manager: the numpy path inside the block."""
+    global _override
+    old = _override
+    _override = False
+    try:
+        yield
+    finally:
+        _override = old
+
+
+def kernels():
+    """The compiled kernel module, or None if numba is not usable here."""
+    global _kernels, _import_error
+    if _kernels is None and _import_error is None:
+        try:
+            from . import _p4s_kernels as k
+            _kernels = k
+        except Exception as exc:  # numba missing or broken: numpy path
+            _import_error = exc
+    return _kernels
+
+
+def available() -> bool:
+    return kernels() is not None
+
+
+def import_error() -> BaseException | None:
+    """Why the kernels are not available (None if they are, or were not tried)."""
+    return _import_error
+
+
+# ---------------------------------------------------------------------- 3-P(4S)
+def design_constants(mech) -> np.ndarray:
+    """Per-design constants (D, 15) of a P4S whose parameters are scalars or (D, 1)
+    (or (D,)): r_b... folded into ``rho - r_b``, L, L^2, the mass-matrix
+    coefficients c0, alpha, beta and the rail directions m_i (computed with the
+    numpy path's own expressions, so inverse kinematics agrees bitwise)."""
+    shape = mech.design_shape
+    D = int(np.prod(shape)) if len(shape) else 1
+    if len(shape) == 2 and shape[1] != 1:
+        raise ValueError(f"design parameters of shape {shape}: expected (D,) or (D, 1)")
+    rho = np.asarray(mech.rho, dtype=float)
+    off = np.broadcast_to(rho - np.asarray(mech.r_b, dtype=float), shape).reshape(D)
+    L = np.broadcast_to(np.asarray(mech.L, dtype=float), shape).reshape(D)
+    m = np.broadcast_to(mech.rail_directions(), shape + (3, 3)).reshape(D, 9)
+
+    def f(name):
+        return np.broadcast_to(np.asarray(getattr(mech, name), dtype=float), shape).reshape(D)
+
+    rods = f("rods_per_branch") * f("m_rod")
+    irod = f("rods_per_branch") * f("rod_Ixx")
+    mr4 = rods / 4.0
+    il2 = irod / (L * L)
+    P = np.empty((D, 15))
+    P[:, 0] = off
+    P[:, 1] = L
+    P[:, 2] = L ** 2
+    P[:, 3] = f("m_platform") + 3.0 * (mr4 + il2)
+    P[:, 4] = f("m_slider") + mr4 + il2
+    P[:, 5] = mr4 - il2
+    P[:, 6:15] = m
+    return np.ascontiguousarray(P)
+
+
+def _points(X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ValueError(f"expected points (N, 3), got shape {X.shape}")
+    return tuple(np.ascontiguousarray(X[:, i]) for i in range(3))
+
+
+def p4s_local(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Local values at points X (N, 3) of the designs of ``mech`` with the fused
+    kernel: ``({"dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2"}: (D, N)),
+    reachable (D, N))``, NaN where not reachable.  Raises RuntimeError if the
+    kernels are not available."""
+    k = kernels()
+    if k is None:
+        raise RuntimeError(f"compiled kernels not available: {_import_error}")
+    P = design_constants(mech)
+    xs, ys, zs = _points(X)
+    vals, reach = k.p4s_local(P, xs, ys, zs, bool(two_norm))
+    vals = np.where(reach[None], vals, np.nan)
+    names = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
+    out = {n: vals[i] for i, n in enumerate(names)}
+    if not two_norm:
+        del out["cond_2"]
+    return out, reach
+
+
+def p4s_summary(mech, X, want=(True, True, True, True, True)):
+    """Per-design statistics over the reachable points: (stats (5, 4, D) with
+    mean/min/max/std of dynamic, sigma_min^2, sigma_min, cond_fro, cond_2;
+    counts (D,); reachable (D, N))."""
+    k = kernels()
+    if k is None:
+        raise RuntimeError(f"compiled kernels not available: {_import_error}")
+    P = design_constants(mech)
+    xs, ys, zs = _points(X)
+    w = np.array([bool(v) for v in want], dtype=np.bool_)
+    return k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
+
+
+def _plan(config, names):
+    """[(index name, kernel row, factor)] for the requested indices, or None if
+    one of them is not supported by the kernel."""
+    plan = []
+    for n in names:
+        spec = config.indices[n]
+        conv = spec.convention
+        if spec.kind not in SUPPORTED or conv not in SUPPORTED[spec.kind]:
+            return None
+        opts = dict(spec.options or {})
+        kval = opts.pop("k", 1.0)
+        if opts:
+            return None
+        try:
+            kval = float(kval)
+        except (TypeError, ValueError):
+            return None
+        if not (math.isfinite(kval) and kval > 0.0):
+            return None
+        if spec.kind == "dynamic":
+            plan.append((n, 0, 1.0))
+        elif spec.kind == "stiffness":
+            if conv in (None, "lambda_min_K"):
+                plan.append((n, 1, kval))
+            else:
+                plan.append((n, 2, math.sqrt(kval)))
+        else:
+            plan.append((n, 3 if conv in (None, "frobenius") else 4, 1.0))
+    return plan
+
+
+def try_evaluate(config, mech, X, names):
+    """The global summaries ``{name: {mean, min, max, std, count}}`` and the
+    reachable mask (D, N) from the fused kernel, or None when the fast path does
+    not apply (the caller then uses the numpy path)."""
+    if not enabled() or getattr(mech, "name", None) != "p4s" or config.mechanism != "p4s":
+        return None
+    from ..mechanisms.p4s import P4S
+
+    if type(mech) is not P4S:
+        return None
+    plan = _plan(config, names)
+    if plan is None:
+        return None
+    if kernels() is None:
+        return None
+    shape = mech.design_shape
+    if len(shape) > 2 or (len(shape) == 2 and shape[1] != 1):
+        return None
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3:
+        return None
+    want = [False] * 5
+    for _, row, _ in plan:
+        want[row] = True
+    try:
+        stats, counts, reach = p4s_summary(mech, X, want)
+    except Exception as exc:  # a compile failure at first call: numpy path from now on
+        global _kernels, _import_error
+        _kernels, _import_error = None, exc
+        warnings.warn(f"optdesign.fast: compiled kernel failed ({exc}); using the numpy path", RuntimeWarning)
+        return None
+    summary = {}
+    for n, row, fac in plan:
+        st = stats[row]
+        if fac != 1.0:
+            st = st * fac
+        summary[n] = {"mean": st[0], "min": st[1], "max": st[2], "std": st[3], "count": counts}
+    return summary, reach
+
+
+def forward_p4s(mech, Q) -> np.ndarray:
+    """Forward kinematics of one design (scalar parameters) for strokes Q (N, 3)
+    with the compiled kernel: platform positions (N, 3), NaN where the spheres do
+    not meet; same solution (assembly mode above the sphere centres) as
+    :meth:`P4S.forward`.  Falls back to ``mech.forward`` if numba is unavailable,
+    the design is not a single one, or the fast path is disabled."""
+    Q = np.asarray(Q, dtype=float)
+    k = kernels() if enabled() else None
+    if k is None or mech.design_shape != () or Q.ndim != 2 or Q.shape[1] != 3:
+        return mech.forward(Q)
+    c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
+    F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
+    return k.p4s_forward(F, *(np.ascontiguousarray(Q[:, i]) for i in range(3)))

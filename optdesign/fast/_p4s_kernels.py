@@ -1,0 +1,562 @@
+"""Fused numba kernels for the 3-P(4S): inverse kinematics, Jacobian, mass
+matrix and the local indices per (design, workspace point), and the closed-form
+forward kinematics.
+
+Importing this module imports numba; :mod:`optdesign.fast` imports it lazily
+and falls back to the numpy path when that fails.
+
+Per point (design constants hoisted, see :func:`design_constants`):
+
+* inverse kinematics exactly as :meth:`P4S.branch_state` computes it (same
+  operations in the same order, so the reachable mask is bitwise the one of
+  the numpy path): ``w_i = p + (rho - r_b) e_i``, ``b_i = m_i.w_i``,
+  ``disc_i = L^2 - |w_i|^2 + b_i^2``, reachable iff every ``disc_i >= 0``;
+* rod directions ``n_i = (w_i - q_i m_i) / L``, ``s_i = n_i.m_i = sqrt(disc_i) / L``,
+  Jacobian rows ``u_i = n_i / s_i``;
+* platform mass matrix in closed form (|n_i| = |m_i| = 1):
+  ``M_p = c0 I + sum_i [alpha u_i u_i^T + beta (m_i u_i^T + u_i m_i^T)]`` with
+  ``c0 = m_p + 3 (m_r/4 + I_r/L^2)``, ``alpha = m_s + m_r/4 + I_r/L^2``,
+  ``beta = m_r/4 - I_r/L^2`` (m_r, I_r: mass and transverse inertia of the rods
+  of one branch); this is ``m_p I + m_s J^T J + sum Jv^T m_r Jv + sum Jw^T I_r Jw``;
+* ``J^-T`` through the adjugate: rows ``r_i = s_i (n_j x n_k) / det N``;
+* dynamic index ``sigma_max(J^-T M_p) = sqrt(lambda_max(M M^T))``; stiffness
+  ``sigma_min(J)^2 = 1 / lambda_max(J^-T J^-1)`` (the smallest eigenvalue
+  through the inverse); Frobenius condition ``sqrt(sum |u_i|^2 sum |r_i|^2)``;
+  2-norm condition ``sqrt(lambda_max(J J^T) lambda_max(J^-T J^-1))``.
+
+Only largest eigenvalues of symmetric positive semi-definite 3 x 3 matrices are
+needed; :func:`lambda_max_psd` computes them in closed form without libm calls
+and without the loss of digits of the arccos form at a double eigenvalue.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..mechanisms.p4s import E as _E
+
+#: points per task: the unit of parallel work and of the partial reductions
+CHUNK = 512
+#: local values the kernels can produce (rows of the output)
+DYN, STIFF2, STIFF1, FRO, TWO = 0, 1, 2, 3, 4
+NVAL = 5
+
+# e_i components (the numpy constants, so that w_i is bitwise the numpy one)
+E00, E01, E02 = float(_E[0, 0]), float(_E[0, 1]), float(_E[0, 2])
+E10, E11, E12 = float(_E[1, 0]), float(_E[1, 1]), float(_E[1, 2])
+E20, E21, E22 = float(_E[2, 0]), float(_E[2, 1]), float(_E[2, 2])
+
+# initial guess of e^{i theta/3} from z = e^{i theta}, theta in [0, pi]:
+# w0 = c0 + c1 z + c2 conj(z) + c3 z^2 (minimax fit, |w0 - w| < 0.0195), then
+# two Halley steps on w^3 = z (cubic convergence: 5e-6, then round-off).
+_C0R, _C0I = 0.6687456362503021, 0.38610047310849865
+_C1R, _C1I = 0.19364836492632637, -0.3354088068550356
+_C2R, _C2I = 0.0494623499389, -0.08567130315592646
+_C3R, _C3I = 0.06931901548496303, 0.04002135225020323
+
+_NJIT = dict(cache=True, error_model="numpy", fastmath=False)
+# the chunk reductions only: reassociation lets LLVM vectorize the sums (the
+# order is still fixed by the code, so results do not depend on threads)
+_NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+
+
+@njit(inline="always", **_NJIT)
+def lambda_max_psd(a00, a11, a22, a01, a02, a12):
+    """Largest eigenvalue of a symmetric positive semi-definite 3 x 3 matrix.
+
+    With A scaled to trace 3, B = A - I, p^2 = tr(B^2)/6 and the discriminant
+    written as a weighted sum of squares of the 2 x 2 minors of the pair
+    (B, C = B^2 - 2 p^2 I) (Lagrange's identity on Parlett's Gram determinant;
+    both vanish together at a double eigenvalue, so it keeps its relative
+    accuracy there), the angle theta = atan2(sqrt(disc/27), det B) and
+    lambda_max = 1 + 2 p cos(theta/3).  cos(theta/3) is the real part of the
+    principal cube root of e^{i theta}, computed with a polynomial start and
+    two Halley steps (arithmetic only, so the point loop vectorizes).
+    """
+    tr = a00 + a11 + a22
+    sc = 3.0 / tr
+    b00 = a00 * sc - 1.0
+    b11 = a11 * sc - 1.0
+    b22 = a22 * sc - 1.0
+    o01 = a01 * sc
+    o02 = a02 * sc
+    o12 = a12 * sc
+    oo01 = o01 * o01
+    oo02 = o02 * o02
+    oo12 = o12 * o12
+    p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (oo01 + oo02 + oo12)) * (1.0 / 6.0)
+    det = b00 * (b11 * b22 - oo12) - o01 * (o01 * b22 - o12 * o02) + o02 * (o01 * o12 - b11 * o02)
+    # C = B^2 - 2 p^2 I
+    t2 = 2.0 * p2
+    c00 = b00 * b00 + oo01 + oo02 - t2
+    c11 = oo01 + b11 * b11 + oo12 - t2
+    c22 = oo02 + oo12 + b22 * b22 - t2
+    c01 = o01 * (b00 + b11) + o02 * o12
+    c02 = o02 * (b00 + b22) + o01 * o12
+    c12 = o12 * (b11 + b22) + o01 * o02
+    # orthogonal coordinates of the traceless parts: (x1, x2) for the diagonal
+    # (weights 1/2 and 1/6), the off-diagonals (weight 2)
+    bx1 = b00 - b11
+    bx2 = b00 + b11 - 2.0 * b22
+    cx1 = c00 - c11
+    cx2 = c00 + c11 - 2.0 * c22
+    m12 = bx1 * cx2 - bx2 * cx1
+    m13 = bx1 * c01 - o01 * cx1
+    m14 = bx1 * c02 - o02 * cx1
+    m15 = bx1 * c12 - o12 * cx1
+    m23 = bx2 * c01 - o01 * cx2
+    m24 = bx2 * c02 - o02 * cx2
+    m25 = bx2 * c12 - o12 * cx2
+    m34 = o01 * c02 - o02 * c01
+    m35 = o01 * c12 - o12 * c01
+    m45 = o02 * c12 - o12 * c02
+    lag = ((1.0 / 12.0) * (m12 * m12)
+           + (m13 * m13 + m14 * m14 + m15 * m15)
+           + (1.0 / 3.0) * (m23 * m23 + m24 * m24 + m25 * m25)
+           + 4.0 * (m34 * m34 + m35 * m35 + m45 * m45))
+    # disc = 3 lag; sin-part = sqrt(disc / 27) = sqrt(lag) / 3
+    y = math.sqrt(lag) * (1.0 / 3.0)
+    x = det
+    # |x + i y| = sqrt(det^2 + 4 p^6 - det^2) = 2 p^3
+    sp = math.sqrt(p2)
+    rho = 2.0 * p2 * sp
+    ok = rho > 0.0
+    irho = 1.0 / (rho if ok else 1.0)
+    zr = x * irho if ok else 1.0
+    zi = y * irho if ok else 0.0
+    # start: c0 + c1 z + c2 conj(z) + c3 z^2
+    z2r = zr * zr - zi * zi
+    z2i = 2.0 * zr * zi
+    wr = (_C0R + _C1R * zr - _C1I * zi + _C2R * zr + _C2I * zi + _C3R * z2r - _C3I * z2i)
+    wi = (_C0I + _C1R * zi + _C1I * zr + _C2I * zr - _C2R * zi + _C3R * z2i + _C3I * z2r)
+    for _ in range(2):
+        # Halley on w^3 = z: w <- w (w^3 + 2 z) / (2 w^3 + z)
+        sr = wr * wr - wi * wi
+        si = 2.0 * wr * wi
+        cr = sr * wr - si * wi
+        ci = sr * wi + si * wr
+        nr0 = cr + 2.0 * zr
+        ni0 = ci + 2.0 * zi
+        nr = wr * nr0 - wi * ni0
+        ni = wr * ni0 + wi * nr0
+        dr = 2.0 * cr + zr
+        di = 2.0 * ci + zi
+        idd = 1.0 / (dr * dr + di * di)
+        wr = (nr * dr + ni * di) * idd
+        wi = (ni * dr - nr * di) * idd
+    lam = (1.0 + 2.0 * sp * wr) * (tr * (1.0 / 3.0))
+    return lam if tr > 0.0 else 0.0
+
+
+@njit(inline="always", **_NJIT)
+def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two):
+    """(reachable, dynamic, sigma_min(J)^2, sigma_min(J), cond_F(J), cond_2(J)) at one point."""
+    # ---- inverse kinematics (the operations of P4S.branch_state, in order)
+    w00 = x + off * E00
+    w01 = y + off * E01
+    w02 = z + off * E02
+    w10 = x + off * E10
+    w11 = y + off * E11
+    w12 = z + off * E12
+    w20 = x + off * E20
+    w21 = y + off * E21
+    w22 = z + off * E22
+    b0 = m00 * w00 + m01 * w01 + m02 * w02
+    b1 = m10 * w10 + m11 * w11 + m12 * w12
+    b2 = m20 * w20 + m21 * w21 + m22 * w22
+    d0 = Lsq - (w00 * w00 + w01 * w01 + w02 * w02) + b0 * b0
+    d1 = Lsq - (w10 * w10 + w11 * w11 + w12 * w12) + b1 * b1
+    d2 = Lsq - (w20 * w20 + w21 * w21 + w22 * w22) + b2 * b2
+    reach = (d0 >= 0.0) & (d1 >= 0.0) & (d2 >= 0.0)
+    r0 = math.sqrt(d0 if d0 > 0.0 else 0.0)
+    r1 = math.sqrt(d1 if d1 > 0.0 else 0.0)
+    r2 = math.sqrt(d2 if d2 > 0.0 else 0.0)
+    q0 = b0 - r0
+    q1 = b1 - r1
+    q2 = b2 - r2
+    n00 = (w00 - q0 * m00) * iL
+    n01 = (w01 - q0 * m01) * iL
+    n02 = (w02 - q0 * m02) * iL
+    n10 = (w10 - q1 * m10) * iL
+    n11 = (w11 - q1 * m11) * iL
+    n12 = (w12 - q1 * m12) * iL
+    n20 = (w20 - q2 * m20) * iL
+    n21 = (w21 - q2 * m21) * iL
+    n22 = (w22 - q2 * m22) * iL
+    s0 = r0 * iL
+    s1 = r1 * iL
+    s2 = r2 * iL
+    # 1 / s_i with one division (the singular case is replaced below)
+    s01 = s0 * s1
+    s012 = s01 * s2
+    sing = s012 == 0.0
+    ip = 1.0 / (s012 if not sing else 1.0)
+    is2 = s01 * ip
+    t = s2 * ip
+    is0 = s1 * t
+    is1 = s0 * t
+    # ---- Jacobian rows u_i = n_i / s_i
+    u00 = n00 * is0
+    u01 = n01 * is0
+    u02 = n02 * is0
+    u10 = n10 * is1
+    u11 = n11 * is1
+    u12 = n12 * is1
+    u20 = n20 * is2
+    u21 = n21 * is2
+    u22 = n22 * is2
+    # ---- platform mass matrix
+    p00 = c0 + alpha * (u00 * u00 + u10 * u10 + u20 * u20) + 2.0 * beta * (m00 * u00 + m10 * u10 + m20 * u20)
+    p11 = c0 + alpha * (u01 * u01 + u11 * u11 + u21 * u21) + 2.0 * beta * (m01 * u01 + m11 * u11 + m21 * u21)
+    p22 = c0 + alpha * (u02 * u02 + u12 * u12 + u22 * u22) + 2.0 * beta * (m02 * u02 + m12 * u12 + m22 * u22)
+    p01 = (alpha * (u00 * u01 + u10 * u11 + u20 * u21)
+           + beta * (m00 * u01 + m10 * u11 + m20 * u21 + u00 * m01 + u10 * m11 + u20 * m21))
+    p02 = (alpha * (u00 * u02 + u10 * u12 + u20 * u22)
+           + beta * (m00 * u02 + m10 * u12 + m20 * u22 + u00 * m02 + u10 * m12 + u20 * m22))
+    p12 = (alpha * (u01 * u02 + u11 * u12 + u21 * u22)
+           + beta * (m01 * u02 + m11 * u12 + m21 * u22 + u01 * m02 + u11 * m12 + u21 * m22))
+    # ---- J^-T rows r_i = s_i (n_j x n_k) / det N
+    a00 = n11 * n22 - n12 * n21
+    a01 = n12 * n20 - n10 * n22
+    a02 = n10 * n21 - n11 * n20
+    a10 = n21 * n02 - n22 * n01
+    a11 = n22 * n00 - n20 * n02
+    a12 = n20 * n01 - n21 * n00
+    a20 = n01 * n12 - n02 * n11
+    a21 = n02 * n10 - n00 * n12
+    a22 = n00 * n11 - n01 * n10
+    detN = n00 * a00 + n01 * a01 + n02 * a02
+    flat = detN == 0.0
+    idet = 1.0 / (detN if not flat else 1.0)
+    f0 = s0 * idet
+    f1 = s1 * idet
+    f2 = s2 * idet
+    r00 = a00 * f0
+    r01 = a01 * f0
+    r02 = a02 * f0
+    r10 = a10 * f1
+    r11 = a11 * f1
+    r12 = a12 * f1
+    r20 = a20 * f2
+    r21 = a21 * f2
+    r22 = a22 * f2
+    # ---- dynamic: M = J^-T M_p, rows M_p r_i; sigma_max(M)^2 = lambda_max(M M^T)
+    M00 = p00 * r00 + p01 * r01 + p02 * r02
+    M01 = p01 * r00 + p11 * r01 + p12 * r02
+    M02 = p02 * r00 + p12 * r01 + p22 * r02
+    M10 = p00 * r10 + p01 * r11 + p02 * r12
+    M11 = p01 * r10 + p11 * r11 + p12 * r12
+    M12 = p02 * r10 + p12 * r11 + p22 * r12
+    M20 = p00 * r20 + p01 * r21 + p02 * r22
+    M21 = p01 * r20 + p11 * r21 + p12 * r22
+    M22 = p02 * r20 + p12 * r21 + p22 * r22
+    g00 = M00 * M00 + M01 * M01 + M02 * M02
+    g11 = M10 * M10 + M11 * M11 + M12 * M12
+    g22 = M20 * M20 + M21 * M21 + M22 * M22
+    g01 = M00 * M10 + M01 * M11 + M02 * M12
+    g02 = M00 * M20 + M01 * M21 + M02 * M22
+    g12 = M10 * M20 + M11 * M21 + M12 * M22
+    dyn = math.sqrt(lambda_max_psd(g00, g11, g22, g01, g02, g12))
+    # ---- stiffness: sigma_min(J)^2 = 1 / lambda_max(R R^T)
+    h00 = r00 * r00 + r01 * r01 + r02 * r02
+    h11 = r10 * r10 + r11 * r11 + r12 * r12
+    h22 = r20 * r20 + r21 * r21 + r22 * r22
+    h01 = r00 * r10 + r01 * r11 + r02 * r12
+    h02 = r00 * r20 + r01 * r21 + r02 * r22
+    h12 = r10 * r20 + r11 * r21 + r12 * r22
+    lh = lambda_max_psd(h00, h11, h22, h01, h02, h12)
+    st2 = 1.0 / lh
+    st1 = math.sqrt(st2) if want_s1 else 0.0
+    # ---- isotropy
+    uu0 = u00 * u00 + u01 * u01 + u02 * u02
+    uu1 = u10 * u10 + u11 * u11 + u12 * u12
+    uu2 = u20 * u20 + u21 * u21 + u22 * u22
+    fro = math.sqrt((uu0 + uu1 + uu2) * (h00 + h11 + h22))
+    if want_two:
+        k01 = u00 * u10 + u01 * u11 + u02 * u12
+        k02 = u00 * u20 + u01 * u21 + u02 * u22
+        k12 = u10 * u20 + u11 * u21 + u12 * u22
+        two = math.sqrt(lambda_max_psd(uu0, uu1, uu2, k01, k02, k12) * lh)
+    else:
+        two = 0.0
+    bad = sing | flat
+    inf = np.inf
+    dyn = inf if bad else dyn
+    st2 = 0.0 if bad else st2
+    st1 = 0.0 if bad else st1
+    fro = inf if bad else fro
+    two = inf if bad else two
+    return reach, dyn, st2, st1, fro, two
+
+
+@njit(**_NJIT)
+def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
+    """Local values of design d at points lo..hi-1 into the flat buffer buf
+    (6 CHUNK): rows (reachable as 1.0/0.0, dynamic, sigma_min^2, sigma_min,
+    cond_F, cond_2) of CHUNK each.  One write array at constant row offsets and
+    no calls in the loop: LLVM vectorizes it."""
+    off = P[d, 0]
+    iL = 1.0 / P[d, 1]
+    Lsq = P[d, 2]
+    c0 = P[d, 3]
+    alpha = P[d, 4]
+    beta = P[d, 5]
+    m00 = P[d, 6]
+    m01 = P[d, 7]
+    m02 = P[d, 8]
+    m10 = P[d, 9]
+    m11 = P[d, 10]
+    m12 = P[d, 11]
+    m20 = P[d, 12]
+    m21 = P[d, 13]
+    m22 = P[d, 14]
+    for j in range(hi - lo):
+        r, a, b, c, e, f = _point(xs[lo + j], ys[lo + j], zs[lo + j], off, iL, Lsq, c0, alpha, beta,
+                                  m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two)
+        buf[j] = 1.0 if r else 0.0
+        buf[CHUNK + j] = a
+        buf[2 * CHUNK + j] = b
+        buf[3 * CHUNK + j] = c
+        buf[4 * CHUNK + j] = e
+        buf[5 * CHUNK + j] = f
+
+
+@njit(parallel=True, **_NJIT)
+def p4s_local(P, xs, ys, zs, want_two):
+    """Local values (NVAL, D, N) and the reachable mask (D, N) for D designs
+    (rows of P, see design_constants) at the N points (xs, ys, zs)."""
+    D = P.shape[0]
+    N = xs.shape[0]
+    vals = np.empty((NVAL, D, N))
+    reach = np.empty((D, N), dtype=np.bool_)
+    nch = (N + CHUNK - 1) // CHUNK
+    for t in prange(D * nch):
+        d = t // nch
+        lo = (t % nch) * CHUNK
+        hi = min(lo + CHUNK, N)
+        buf = np.empty(6 * CHUNK)
+        _chunk(P, d, xs, ys, zs, lo, hi, True, want_two, buf)
+        for j in range(hi - lo):
+            reach[d, lo + j] = buf[j] != 0.0
+            for v in range(NVAL):
+                vals[v, d, lo + j] = buf[(v + 1) * CHUNK + j]
+    return vals, reach
+
+
+@njit(**_NJIT_RED)
+def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
+    """Values of design d at points lo..hi-1 (reach row written), then for each
+    wanted value its sum, min, max and centred sum of squares over the
+    reachable points into out (NVAL, 4); returns the count."""
+    n = hi - lo
+    _chunk(P, d, xs, ys, zs, lo, hi, want[STIFF1], want_two, buf)
+    k = 0
+    for j in range(n):
+        r = buf[j] != 0.0
+        reach[j] = r
+        k += 1 if r else 0
+    for v in range(NVAL):
+        if not want[v]:
+            continue
+        o = (v + 1) * CHUNK
+        s = 0.0
+        lo_v = np.inf
+        hi_v = -np.inf
+        for j in range(n):
+            r = buf[j] != 0.0
+            x = buf[o + j]
+            s += x if r else 0.0
+            xl = x if r else np.inf
+            xh = x if r else -np.inf
+            lo_v = xl if xl < lo_v else lo_v
+            hi_v = xh if xh > hi_v else hi_v
+        m2 = 0.0
+        if k > 0:
+            mu = s / k
+            for j in range(n):
+                e = buf[o + j] - mu
+                m2 += e * e if buf[j] != 0.0 else 0.0
+        out[v, 0] = s
+        out[v, 1] = lo_v
+        out[v, 2] = hi_v
+        out[v, 3] = m2
+    return k
+
+
+@njit(parallel=True, **_NJIT)
+def p4s_summary(P, xs, ys, zs, want, want_two):
+    """Per-design mean, min, max, std over the reachable points of the wanted
+    local values (want: NVAL booleans): returns stats (NVAL, 4, D) with
+    stats[:, 0..3] = mean, min, max, std (NaN where no point is reachable),
+    the counts (D,) and the reachable mask (D, N).
+
+    Work is split in fixed chunks of CHUNK points per design; each chunk keeps
+    its count, sum, min, max and centred sum of squares, and the chunks of a
+    design are combined in order, so results do not depend on the number of
+    threads.
+    """
+    D = P.shape[0]
+    N = xs.shape[0]
+    nch = (N + CHUNK - 1) // CHUNK
+    reach = np.empty((D, N), dtype=np.bool_)
+    part = np.empty((D, nch, NVAL, 4))
+    cnt = np.zeros((D, nch), dtype=np.int64)
+    for t in prange(D * nch):
+        d = t // nch
+        c = t % nch
+        lo = c * CHUNK
+        hi = min(lo + CHUNK, N)
+        buf = np.empty(6 * CHUNK)
+        cnt[d, c] = _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach[d, lo:hi], buf, part[d, c])
+    stats = np.full((NVAL, 4, D), np.nan)
+    counts = np.zeros(D, dtype=np.int64)
+    for d in prange(D):
+        _combine(d, nch, want, cnt, part, stats, counts)
+    return stats, counts, reach
+
+
+@njit(**_NJIT)
+def _combine(d, nch, want, cnt, part, stats, counts):
+    k = 0
+    for c in range(nch):
+        k += cnt[d, c]
+    counts[d] = k
+    if k == 0:
+        return
+    for v in range(NVAL):
+        if not want[v]:
+            continue
+        s = 0.0
+        lo_v = np.inf
+        hi_v = -np.inf
+        for c in range(nch):
+            if cnt[d, c] > 0:
+                s += part[d, c, v, 0]
+                lo_v = min(lo_v, part[d, c, v, 1])
+                hi_v = max(hi_v, part[d, c, v, 2])
+        mu = s / k
+        m2 = 0.0
+        for c in range(nch):
+            kc = cnt[d, c]
+            if kc > 0:
+                e = part[d, c, v, 0] / kc - mu
+                m2 += part[d, c, v, 3] + kc * (e * e)
+        stats[v, 0, d] = mu
+        stats[v, 1, d] = lo_v
+        stats[v, 2, d] = hi_v
+        stats[v, 3, d] = math.sqrt(m2 / k) if math.isfinite(mu) else np.nan
+
+
+@njit(parallel=True, **_NJIT)
+def p4s_forward(F, q1, q2, q3):
+    """Forward kinematics of one design for N stroke triples: (N, 3) positions.
+
+    F = (r_b - rho, cos phi, sin phi, L^2, L) of the design.  Sphere centres
+    s_i = a_i e_i + h_i z with a_i = (r_b - rho) - q_i cos phi, h_i = q_i sin phi;
+    subtracting the sphere equations gives x, y and |p|^2 as affine functions of
+    z, then a quadratic in z whose upper root is the assembly mode of the paper;
+    one Newton step on the three sphere equations removes the round-off.
+    """
+    N = q1.shape[0]
+    out = np.empty((N, 3))
+    nch = (N + 4095) // 4096
+    for t in prange(nch):
+        lo = t * 4096
+        hi = min(lo + 4096, N)
+        for j in range(lo, hi):
+            x, y, z = _fk_point(F, q1[j], q2[j], q3[j])
+            out[j, 0] = x
+            out[j, 1] = y
+            out[j, 2] = z
+    return out
+
+
+@njit(inline="always", **_NJIT)
+def _fk_point(F, qa, qb, qc):
+    off = F[0]
+    c = F[1]
+    s = F[2]
+    Lsq = F[3]
+    a0 = off - c * qa
+    a1 = off - c * qb
+    a2 = off - c * qc
+    h0 = s * qa
+    h1 = s * qb
+    h2 = s * qc
+    # centres (a_i e_i, h_i)
+    s00 = a0 * E00
+    s01 = a0 * E01
+    s10 = a1 * E10
+    s11 = a1 * E11
+    s20 = a2 * E20
+    s21 = a2 * E21
+    # |p - s_i|^2 = L^2, with P = |p|^2:
+    #   2 s_i.p - P = |s_i|^2 - L^2
+    # unknowns (x, y, P) affine in z: 2 sx_i x + 2 sy_i y - P = k_i - 2 h_i z
+    k0 = a0 * a0 + h0 * h0 - Lsq
+    k1 = a1 * a1 + h1 * h1 - Lsq
+    k2 = a2 * a2 + h2 * h2 - Lsq
+    # differences eliminate P: rows (s_i - s_0) . (x, y) = ((k_i - k_0) - 2 (h_i - h_0) z) / 2
+    A00 = s10 - s00
+    A01 = s11 - s01
+    A10 = s20 - s00
+    A11 = s21 - s01
+    det = A00 * A11 - A01 * A10
+    idet = 1.0 / det
+    e0 = 0.5 * (k1 - k0)
+    e1 = 0.5 * (k2 - k0)
+    f0 = -(h1 - h0)
+    f1 = -(h2 - h0)
+    # x = x0 + x1 z, y = y0 + y1 z
+    x0 = (A11 * e0 - A01 * e1) * idet
+    x1 = (A11 * f0 - A01 * f1) * idet
+    y0 = (A00 * e1 - A10 * e0) * idet
+    y1 = (A00 * f1 - A10 * f0) * idet
+    # sphere 0: (x - s00)^2 + (y - s01)^2 + (z - h0)^2 = L^2
+    X0 = x0 - s00
+    Y0 = y0 - s01
+    qa2 = x1 * x1 + y1 * y1 + 1.0
+    qb2 = X0 * x1 + Y0 * y1 - h0          # half of the linear coefficient
+    qc2 = X0 * X0 + Y0 * Y0 + h0 * h0 - Lsq
+    disc = qb2 * qb2 - qa2 * qc2
+    sq = math.sqrt(disc)
+    # upper root, written without cancellation
+    z = (sq - qb2) / qa2 if qb2 <= 0.0 else -qc2 / (qb2 + sq)
+    x = x0 + x1 * z
+    y = y0 + y1 * z
+    # one Newton step on f_i = (|p - s_i|^2 - L^2) / 2
+    d00 = x - s00
+    d01 = y - s01
+    d02 = z - h0
+    d10 = x - s10
+    d11 = y - s11
+    d12 = z - h1
+    d20 = x - s20
+    d21 = y - s21
+    d22 = z - h2
+    g0 = 0.5 * (d00 * d00 + d01 * d01 + d02 * d02 - Lsq)
+    g1 = 0.5 * (d10 * d10 + d11 * d11 + d12 * d12 - Lsq)
+    g2 = 0.5 * (d20 * d20 + d21 * d21 + d22 * d22 - Lsq)
+    c00 = d11 * d22 - d12 * d21
+    c01 = d12 * d20 - d10 * d22
+    c02 = d10 * d21 - d11 * d20
+    c10 = d21 * d02 - d22 * d01
+    c11 = d22 * d00 - d20 * d02
+    c12 = d20 * d01 - d21 * d00
+    c20 = d01 * d12 - d02 * d11
+    c21 = d02 * d10 - d00 * d12
+    c22 = d00 * d11 - d01 * d10
+    dd = d00 * c00 + d01 * c01 + d02 * c02
+    ok = dd != 0.0
+    idd = 1.0 / (dd if ok else 1.0)
+    dx = (c00 * g0 + c10 * g1 + c20 * g2) * idd
+    dy = (c01 * g0 + c11 * g1 + c21 * g2) * idd
+    dz = (c02 * g0 + c12 * g1 + c22 * g2) * idd
+    nan = np.nan
+    good = disc >= 0.0
+    x = (x - dx if ok else x) if good else nan
+    y = (y - dy if ok else y) if good else nan
+    z = (z - dz if ok else z) if good else nan
+    return x, y, z
