@@ -328,6 +328,8 @@ def _from_mapping(data: Any, source: str) -> Config:
     mech_cls = get(mech_name)
     name = data.get("name", Path(source).stem if source != "<string>" else mech_name)
     name = r.string(name, "name")
+    if data.get("description") is not None:
+        r.string(data["description"], "description")
 
     # fixed parameters
     params: dict[str, float] = {}
