@@ -404,7 +404,7 @@ def _from_mapping(data: Any, source: str) -> Config:
         for ok, ov in opts.items():
             opts[ok] = r.number(ov, f"{ipath}.options.{ok}", positive=(ok == "k"))
         # the joint stiffness k of K = J^T k J: the mechanism's parameter unless the index sets its own
-        if kind == "stiffness" and "k" not in opts and "k" in mech_cls.fixed_parameters:
+        if kind in ("stiffness", "axis_stiffness") and "k" not in opts and "k" in mech_cls.fixed_parameters:
             opts["k"] = float(params.get("k", mech_cls.fixed_parameters["k"]))
         indices[iname] = IndexSpec(iname, kind, conv, sense, opts)
 
