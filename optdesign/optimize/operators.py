@@ -136,7 +136,7 @@ class AdaptiveMutationCallback(Callback):
         opt = algorithm.opt
         if opt is None or len(opt) == 0:
             return
-        f = float(opt[0].F[0]) if opt[0].feasible[0] else np.inf
+        f = float(opt[0].F[0]) if opt[0].CV[0] <= 0 else np.inf
         improved = f < self.best - 1e-15 * max(1.0, abs(self.best) if np.isfinite(self.best) else 1.0)
         if algorithm.n_gen > 1:
             self.mutation.adapt(improved)

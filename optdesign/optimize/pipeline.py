@@ -158,7 +158,7 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
                "feasible": int(feas.sum())}
         if single:
             best = algorithm.opt[0]
-            rec["best_objective"] = float(best.F[0]) if best.feasible[0] else float("nan")
+            rec["best_objective"] = float(best.F[0]) if best.CV[0] <= 0 else float("nan")
             rec["mean_objective"] = float(np.mean(F[feas, 0])) if feas.any() else float("nan")
             for k in problem.config.indices:
                 v = best.get(f"index_{k}")
@@ -233,7 +233,7 @@ def _stage_summary(folder: RunFolder, stage: Stage, algorithm, problem: DesignPr
            "evaluations": int(algorithm.evaluator.n_eval)}
     if stage.kind in ("single", "weighted"):
         best = algorithm.opt[0]
-        feasible = bool(best.feasible[0])
+        feasible = bool(best.CV[0] <= 0)
         design = {k: float(v[0]) for k, v in problem.designs(best.X[None, :]).items()}
         res.update({"feasible": feasible, "objective": float(best.F[0]) if feasible else None,
                     "design": design,

@@ -29,7 +29,7 @@ def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "ru
     text = config_text(cfg)
     key = run_key(text, seed, {"pareto": pareto})
     folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name)
-    folder.update_manifest(pareto=pareto, config_source=cfg.source)
+    folder.update_manifest(pareto=pareto, config_source=cfg.source, config_name=cfg.name)
     return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after)
 
 
@@ -39,9 +39,7 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
     m = folder.read_manifest()
     text = folder.config_text()
     cfg = parse_config(text, source=str(folder.path / "config.yaml"))
-    src = m.get("config_source")
-    if src:
-        cfg.name = m.get("name", cfg.name)
+    cfg.name = m.get("config_name") or m.get("name") or cfg.name
     if m.get("status") == "complete" and (folder.path / "results.json").exists():
         import json
 
