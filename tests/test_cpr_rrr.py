@@ -312,3 +312,74 @@ def test_optimization_config_loads_and_centring_the_offsets_helps():
     assert res["centred"]["reachable_fraction"] == res["start"]["reachable_fraction"] == 1.0
     for k in ("dexterity", "stiffness"):
         assert res["centred"][k]["mean"] > res["start"][k]["mean"]
+
+
+# ---------------------------------------------------------------------- MuJoCo cross-check
+def _mjcf(m):
+    """The three chains as open kinematic trees in MuJoCo, each ending in a site
+    at the platform point; joint order as in the paper's eq. 1."""
+    P = {k: float(np.asarray(v)) for k, v in m.params.items()}
+    return f"""
+<mujoco>
+  <worldbody>
+    <body name="c1"><joint name="m1" type="slide" axis="1 0 0"/><joint name="th1" type="hinge" axis="1 0 0"/>
+      <geom type="sphere" size="0.01" mass="1"/>
+      <body name="p1"><joint name="d1" type="slide" axis="0 1 0"/><geom type="sphere" size="0.01" mass="1"/>
+        <body name="r1"><joint name="r1" type="hinge" axis="1 0 0"/><geom type="sphere" size="0.01" mass="1"/>
+          <site name="s1" pos="0 {P['w']} 0"/></body></body></body>
+    <body name="c2"><joint name="m2" type="slide" axis="0 1 0"/><joint name="th2" type="hinge" axis="0 -1 0"/>
+      <geom type="sphere" size="0.01" mass="1"/>
+      <body name="p2"><joint name="d2" type="slide" axis="1 0 0"/><geom type="sphere" size="0.01" mass="1"/>
+        <body name="r2"><joint name="r2" type="hinge" axis="0 1 0"/><geom type="sphere" size="0.01" mass="1"/>
+          <site name="s2" pos="{P['f']} 0 0"/></body></body></body>
+    <body name="b3" pos="{P['rrr_base_x']} {P['rrr_base_y']} 0"><joint name="a1" type="hinge" axis="0 0 1"/>
+      <geom type="sphere" size="0.01" mass="1"/>
+      <body name="e3" pos="{P['l1']} 0 0"><joint name="a2" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.01" mass="1"/>
+        <body name="c3" pos="{P['l2']} 0 0"><joint name="a3" type="hinge" axis="0 0 1"/><geom type="sphere" size="0.01" mass="1"/>
+          <site name="s3" pos="{-P['rrr_attach_x']} {-P['rrr_attach_y']} {P['n']}"/></body></body></body>
+  </worldbody>
+</mujoco>"""
+
+
+@pytest.mark.parametrize("kind", [ROTARY, LINEAR])
+def test_mujoco_closes_the_loops_and_reproduces_the_jacobian(kind):
+    """MuJoCo composes each chain's joints with its own kinematics: with our
+    joint values all three chains end at the platform point (x, y, n) with the
+    platform level, and the chain's joint rates that give a platform
+    translation (solved from MuJoCo's site Jacobians) have actuated rates equal
+    to the rows of J."""
+    mujoco = pytest.importorskip("mujoco")
+    m = mech(kind, rrr_attach_x=0.01, rrr_attach_y=-0.02)
+    model = mujoco.MjModel.from_xml_string(_mjcf(m))
+    data = mujoco.MjData(model)
+    X = poses(12)
+    s = m.chain_state(X)
+    J = m.jacobian(X)
+    jid = {model.joint(i).name: model.jnt_qposadr[i] for i in range(model.njnt)}
+    chains = {"s1": ["m1", "th1", "d1", "r1"], "s2": ["m2", "th2", "d2", "r2"], "s3": ["a1", "a2", "a3"]}
+    actuated = {ROTARY: [("s2", "th2"), ("s1", "th1")], LINEAR: [("s1", "m1"), ("s2", "m2")]}[kind]
+    for k in range(len(X)):
+        q = {"m1": s["m1"][k], "th1": s["theta1"][k], "d1": s["d1"][k], "r1": -s["theta1"][k],
+             "m2": s["m2"][k], "th2": s["theta2"][k], "d2": s["d2"][k], "r2": s["theta2"][k],
+             "a1": s["phi1"][k], "a2": s["phi2"][k] - s["phi1"][k], "a3": s["phi3"][k] - s["phi2"][k]}
+        for name, v in q.items():
+            data.qpos[jid[name]] = v
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        target = np.array([X[k, 0], X[k, 1], DESIGN["n"]])
+        for site, body in (("s1", "r1"), ("s2", "r2"), ("s3", "c3")):
+            np.testing.assert_allclose(data.site(site).xpos, target, atol=1e-14)
+            np.testing.assert_allclose(data.body(body).xmat.reshape(3, 3), np.eye(3), atol=1e-14)
+        for v in np.eye(2):
+            twist = np.concatenate([np.zeros(3), v, [0.0]])      # (omega; v) of the platform point
+            rates = {}
+            for site, names in chains.items():
+                jp, jr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+                mujoco.mj_jacSite(model, data, jp, jr, model.site(site).id)
+                cols = [jid[nm] for nm in names]                  # hinge/slide: qpos index = dof index
+                A = np.vstack([jr[:, cols], jp[:, cols]])
+                r, *_ = np.linalg.lstsq(A, twist, rcond=None)
+                assert np.linalg.norm(A @ r - twist) < 1e-12
+                rates.update(dict(zip(names, r)))
+            got = [rates[j] for _, j in actuated]
+            np.testing.assert_allclose(got, J[k] @ v, rtol=1e-10, atol=1e-12)
