@@ -144,7 +144,7 @@ class CPR_RRR(Mechanism):
         theta1 = np.arctan2(n, u1)
         d2 = np.hypot(n, u2)
         d1 = np.hypot(n, u1)
-        bx = np.broadcast_to(self.rrr_base_x, np.shape(self.rrr_base_x))
+        bx = np.asarray(self.rrr_base_x, dtype=float)
         rx = x + self.rrr_attach_x - bx
         ry = y + self.rrr_attach_y - self.rrr_base_y
         rho = np.hypot(rx, ry)
