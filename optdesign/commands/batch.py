@@ -1,52 +1,88 @@
-"""optdesign batch CONFIG... --seeds N --jobs 2: configs × seeds in parallel, one summary table."""
+"""optdesign batch CONFIG... --seeds N [--backend local|dask]: configs × sweeps × seeds, one summary table."""
 from __future__ import annotations
 
+import re
 import sys
 
 COMMAND = "batch"
 
+#: a Dask scheduler address: [tcp:// or tls://]HOST:PORT (HOST may be [IPv6])
+_ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
+
 
 def register(sub):
-    p = sub.add_parser(COMMAND, help="run configs × seeds in parallel (joblib) and tabulate them")
-    p.add_argument("configs", nargs="+", metavar="CONFIG", help="YAML config files")
-    p.add_argument("--seeds", type=int, default=1, metavar="N",
-                   help="seeds per config: the config's optimizer.seed and the N-1 after it (default 1)")
+    p = sub.add_parser(COMMAND, help="run configs (or batch files with sweeps) × seeds in parallel and tabulate them",
+                       description="Run configs or batch files (base config + sweep, see docs/scaling.md) × seeds, "
+                                   "on the local cores or a Dask cluster. Each run lands in OUT/<name>-s<seed>-<key>/; "
+                                   "rerunning skips finished runs and resumes unfinished ones.")
+    p.add_argument("configs", nargs="+", metavar="CONFIG", help="YAML config files or batch files")
+    p.add_argument("--seeds", type=int, default=None, metavar="N",
+                   help="seeds per config: the config's optimizer.seed and the N-1 after it "
+                        "(default: a batch file's seeds, else 1)")
     p.add_argument("--seed-list", default=None, metavar="S1,S2,...", help="explicit seeds (overrides --seeds)")
-    p.add_argument("--jobs", type=int, default=2, metavar="J", help="parallel workers (default 2)")
-    p.add_argument("--out", default="runs", metavar="DIR", help="parent folder of the run folders (default runs)")
-    p.add_argument("--pareto", action="store_true", help="also run the NSGA-II/III fronts in each run")
+    p.add_argument("--jobs", type=int, default=None, metavar="J",
+                   help="parallel workers (local default 2; dask default: every worker thread)")
+    p.add_argument("--out", default="runs", metavar="DIR",
+                   help="parent folder of the run folders (default runs; with dask, a path every worker sees)")
+    p.add_argument("--pareto", action="store_true", default=None, help="also run the NSGA-II/III fronts in each run")
+    p.add_argument("--backend", choices=("local", "dask"), default="local",
+                   help="local: joblib's process pool on this machine (default); dask: a Dask cluster")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="Dask scheduler address (--backend dask)")
+    p.add_argument("--timeout", type=float, default=10.0, metavar="S",
+                   help="seconds to wait for the Dask scheduler and its first worker (default 10)")
+    p.add_argument("--retries", type=int, default=2, metavar="R",
+                   help="resubmissions of runs lost with a dead worker or failed on it (default 2)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ..batch import plan, run_batch, summarize
+    from ..batch import BackendError, plan, run_batch, summarize
     from ..cli import UsageError
-    from ..runs import RunFolderError
 
-    if args.seeds < 1:
+    if args.seeds is not None and args.seeds < 1:
         raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
-    if args.jobs < 1:
+    if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs: expected a positive integer, got {args.jobs}")
+    if args.retries < 0:
+        raise UsageError(f"--retries: expected a non-negative integer, got {args.retries}")
+    if not args.timeout > 0:
+        raise UsageError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
+    if args.backend == "dask" and not args.scheduler:
+        raise UsageError("--backend dask needs --scheduler tcp://HOST:PORT (the address of a running Dask scheduler)")
+    if args.scheduler and not _ADDRESS.match(args.scheduler):
+        raise UsageError(f"--scheduler: expected an address such as tcp://HOST:PORT, got {args.scheduler!r}")
+    if args.backend == "local" and args.scheduler:
+        raise UsageError("--scheduler is only used with --backend dask")
     seeds = None
     if args.seed_list:
         try:
             seeds = [int(s) for s in args.seed_list.split(",") if s.strip()]
         except ValueError:
             raise UsageError(f"--seed-list: expected integers separated by commas, got {args.seed_list!r}") from None
-        if any(s < 0 for s in seeds):
-            raise UsageError("--seed-list: expected non-negative seeds")
+        if any(not 0 <= s < 2 ** 32 for s in seeds):
+            raise UsageError("--seed-list: expected seeds in [0, 2^32)")
     tasks = plan(args.configs, args.seeds, seeds, pareto=args.pareto)
-    print(f"batch: {len(tasks)} runs ({len(args.configs)} configs) on {args.jobs} workers -> {args.out}/", file=sys.stderr)
+    where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
+    print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
 
     def show(row):
+        if row.get("status") != "complete":
+            print(f"{row['folder']}: {row.get('status')} seed={row['seed']} ({row.get('error', '')})", flush=True)
+            return
         opt = ", ".join(f"{k[4:]}={v:.6g}" for k, v in row.items() if k.startswith("opt_"))
-        print(f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective={row['objective']:.6g} at {opt}", flush=True)
+        print(f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective={row['objective']:.6g} at {opt}",
+              flush=True)
 
     try:
-        rows = run_batch(tasks, args.out, args.jobs, on_result=show)
-    except RunFolderError as exc:
+        rows = run_batch(tasks, args.out, args.jobs, backend=args.backend, scheduler=args.scheduler,
+                         on_result=show, retries=args.retries, timeout=args.timeout)
+    except BackendError as exc:
         raise UsageError(str(exc)) from None
     csv_path, md_path = summarize(rows, args.out)
     print(md_path.read_text())
-    print(f"summary: {csv_path}, {md_path}")
+    print(f"summary: {csv_path}, {md_path}, {md_path.with_suffix('.png')}")
+    failed = [r for r in rows if r.get("status") != "complete"]
+    if failed:
+        print(f"optdesign: {len(failed)} of {len(rows)} runs did not complete (see the table)", file=sys.stderr)
+        return 1
     return 0

@@ -1,0 +1,160 @@
+"""Batches on a real local Dask cluster: a scheduler and two workers as separate
+processes on 127.0.0.1; one worker is killed mid-batch and the batch still
+finishes, with results equal to a local run."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("distributed", reason="the dask extra is not installed")
+
+from optdesign.batch import connect_dask, plan, run_task  # noqa: E402
+
+DATA = Path(__file__).parent / "data"
+#: result fields that must agree exactly between backends (not wall times or folders)
+SAME = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
+        "dynamic", "stiffness", "isotropy", "evaluations")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if proc.poll() is not None:
+            raise RuntimeError(f"dask scheduler exited with {proc.returncode}")
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=1):
+                return
+        except OSError:
+            time.sleep(0.2)
+    raise RuntimeError("dask scheduler did not open its port")
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    """A scheduler and two single-thread workers (no nanny, so killing a worker's
+    process kills the worker), each a separate process; all stopped at the end."""
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs: dict[str, subprocess.Popen] = {}
+    logs = []
+
+    def start(name, args):
+        log = open(tmp_path / f"{name}.log", "w")
+        logs.append(log)
+        procs[name] = subprocess.Popen([sys.executable, "-m", "dask", *args], stdout=log, stderr=subprocess.STDOUT,
+                                       cwd=tmp_path, start_new_session=True)
+
+    try:
+        start("scheduler", ["scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"])
+        _wait_port(port, procs["scheduler"])
+        for i in (1, 2):
+            start(f"worker{i}", ["worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                 "--host", "127.0.0.1", "--death-timeout", "60",
+                                 "--local-directory", str(tmp_path / f"w{i}")])
+        client = connect_dask(address, timeout=60)
+        client.wait_for_workers(2, timeout=60)
+        client.close()
+        yield address, procs
+    finally:
+        for name in sorted(procs, key=lambda n: n == "scheduler"):   # workers first
+            p = procs[name]
+            if p.poll() is None:
+                p.terminate()
+        for p in procs.values():
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        for log in logs:
+            log.close()
+
+
+def _running_with_checkpoint(out: Path) -> list[Path]:
+    busy = []
+    for d in out.glob("*-s*-*"):
+        try:
+            m = json.loads((d / "manifest.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if m.get("status") == "running" and any(d.glob("stages/*/checkpoint.pkl")):
+            busy.append(d)
+    return busy
+
+
+def test_dask_batch_survives_a_killed_worker(cluster, tmp_path):
+    address, procs = cluster
+    cfg = tmp_path / "slow.yaml"
+    # a little longer than the other tests' runs, so that a worker is caught mid-run
+    cfg.write_text((DATA / "batch_small.yaml").read_text().replace("generations: 5", "generations: 8"))
+    out = tmp_path / "runs"
+    cmd = [sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--out", str(out),
+           "--backend", "dask", "--scheduler", address, "--timeout", "30"]
+    batch = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    try:
+        # both single-thread workers busy, each with a run that has checkpointed a generation
+        t0 = time.monotonic()
+        while len(_running_with_checkpoint(out)) < 2:
+            assert batch.poll() is None, batch.communicate()
+            assert time.monotonic() - t0 < 240, "the workers never started two runs"
+            time.sleep(0.05)
+        os.kill(procs["worker1"].pid, signal.SIGKILL)
+        procs["worker1"].wait(timeout=10)
+        stdout, stderr = batch.communicate(timeout=300)
+    finally:
+        if batch.poll() is None:
+            batch.kill()
+            batch.wait()
+    assert batch.returncode == 0, stderr
+    rows = {r["run_key"]: r for r in _csv_rows(out / "summary.csv")}
+    assert len(rows) == 2 and all(r["status"] == "complete" for r in rows.values())
+    # the killed worker's run was taken over by the other worker and resumed from its checkpoint
+    assert "resumed" in {r["this_batch"] for r in rows.values()}, stdout
+    assert (out / "summary.png").is_file()
+
+    # the same tasks run locally (in this process) give identical results
+    ref_out = tmp_path / "ref"
+    for t in plan([str(cfg)], 2):
+        ref = run_task(t, str(ref_out))
+        got = rows[t.key]
+        for k in SAME:
+            assert str(got[k]) == _csv_str(ref[k]), (k, got[k], ref[k])
+        # and the final populations are the same, generation for generation
+        a = (out / t.folder_name / "stages" / "weighted_sum" / "history.csv").read_text()
+        b = (ref_out / t.folder_name / "stages" / "weighted_sum" / "history.csv").read_text()
+        assert a == b
+
+
+def _csv_rows(path: Path) -> list[dict]:
+    import csv
+
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _csv_str(v) -> str:
+    return repr(v) if isinstance(v, float) else str(v)
+
+
+def test_dask_errors_are_one_line(tmp_path):
+    from optdesign.cli import main
+
+    port = _free_port()        # nothing listens there
+    rc = main(["batch", str(DATA / "batch_small.yaml"), "--out", str(tmp_path), "--backend", "dask",
+               "--scheduler", f"tcp://127.0.0.1:{port}", "--timeout", "1"])
+    assert rc == 2
+    assert not any(tmp_path.iterdir())          # nothing was run
