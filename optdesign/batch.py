@@ -81,12 +81,12 @@ _MAX_COMBINATIONS = 10_000
 
 
 def is_batch_file(path: str | os.PathLike) -> bool:
-    """True if the YAML file is a batch file (a mapping with a ``base`` key)."""
+    """True if the YAML file is a batch file (a mapping with a ``base`` or ``sweep`` key)."""
     try:
         data = yaml.safe_load(Path(path).read_text())
     except Exception:  # noqa: BLE001 - not readable: let load_config report it
         return False
-    return isinstance(data, dict) and "base" in data
+    return isinstance(data, dict) and ("base" in data or "sweep" in data)
 
 
 @dataclass
@@ -192,6 +192,8 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
     for k in raw:
         if k not in _BATCH_KEYS:
             _fail(source, str(k), f"unknown key; expected one of {', '.join(sorted(_BATCH_KEYS))}")
+    if "base" not in raw:
+        _fail(source, "base", "missing required key (the config file to vary)")
     base = raw.get("base")
     if not isinstance(base, str) or not base:
         _fail(source, "base", "expected the path of a config file")
