@@ -63,18 +63,28 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
     mech = get(config.mechanism)(**kw)
     names = list(index_names) if index_names is not None else list(config.indices)
     needs = {INDEX_KINDS[config.indices[n].kind].needs for n in names}
-    with np.errstate(all="ignore"):
-        reach = np.broadcast_to(mech.reachable(ws.X), (len(next(iter(full.values()))), ws.n))
-        mats = mech.index_matrices(ws.X, needs)
-        summary, local = {}, {}
-        for n in names:
-            spec = config.indices[n]
-            vals = local_index(spec.kind, J=mats.get("J"), M=mats.get("M"), convention=spec.convention,
-                               options=spec.options)
-            vals = np.broadcast_to(vals, reach.shape)
-            summary[n] = global_summary(vals, reach)
-            if keep_local:
-                local[n] = np.where(reach, vals, np.nan)
+    # the fused compiled kernel (optdesign.fast) when it applies; OPTDESIGN_FAST=0 forces numpy
+    fast = None
+    if not keep_local:
+        from .fast import try_evaluate
+
+        fast = try_evaluate(config, mech, ws.X, names)
+    if fast is not None:
+        summary, reach = fast
+        local = {}
+    else:
+        with np.errstate(all="ignore"):
+            reach = np.broadcast_to(mech.reachable(ws.X), (len(next(iter(full.values()))), ws.n))
+            mats = mech.index_matrices(ws.X, needs)
+            summary, local = {}, {}
+            for n in names:
+                spec = config.indices[n]
+                vals = local_index(spec.kind, J=mats.get("J"), M=mats.get("M"), convention=spec.convention,
+                                   options=spec.options)
+                vals = np.broadcast_to(vals, reach.shape)
+                summary[n] = global_summary(vals, reach)
+                if keep_local:
+                    local[n] = np.where(reach, vals, np.nan)
     frac = reach.mean(axis=-1)
     return Evaluation(summary, reach, frac, local if keep_local else None, ws)
 
