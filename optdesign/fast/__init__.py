@@ -133,36 +133,112 @@ def _points(X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tuple(np.ascontiguousarray(X[:, i]) for i in range(3))
 
 
+VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
+
+
+def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
+    """The numpy path's local values (5, K) at the pairs (design dd[i], point
+    jj[i]): the ill-conditioned points the kernel leaves to LAPACK."""
+    from ..indices import local_index
+
+    shape = mech.design_shape
+    D = int(np.prod(shape)) if len(shape) else 1
+    params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] for k, v in mech.params.items()}
+    m = type(mech)(**params)
+    Xk = np.asarray(X, dtype=float)[jj]
+    out = np.full((5, len(dd)), np.nan)
+    with np.errstate(all="ignore"):
+        J = m.jacobian(Xk)
+        if want[0]:
+            out[0] = local_index("dynamic", M=m.mass_matrix(Xk))
+        if want[1] or want[2]:
+            out[1] = local_index("stiffness", J=J, convention="lambda_min_K", options={"k": 1.0})
+            out[2] = local_index("stiffness", J=J, convention="sqrt_lambda_min_K", options={"k": 1.0})
+        if want[3]:
+            out[3] = local_index("isotropy", J=J, convention="frobenius")
+        if want[4]:
+            out[4] = local_index("isotropy", J=J, convention="two_norm")
+    return out
+
+
 def p4s_local(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Local values at points X (N, 3) of the designs of ``mech`` with the fused
     kernel: ``({"dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2"}: (D, N)),
-    reachable (D, N))``, NaN where not reachable.  Raises RuntimeError if the
-    kernels are not available."""
+    reachable (D, N))``, NaN where not reachable; ill-conditioned points come
+    from the numpy path.  Raises RuntimeError if the kernels are not available."""
     k = kernels()
     if k is None:
         raise RuntimeError(f"compiled kernels not available: {_import_error}")
     P = design_constants(mech)
     xs, ys, zs = _points(X)
-    vals, reach = k.p4s_local(P, xs, ys, zs, bool(two_norm))
+    vals, codes = k.p4s_local(P, xs, ys, zs, bool(two_norm))
+    reach = codes != 0
     vals = np.where(reach[None], vals, np.nan)
-    names = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
-    out = {n: vals[i] for i, n in enumerate(names)}
+    dd, jj = np.nonzero(codes == 2)
+    if len(dd):
+        vals[:, dd, jj] = _lapack_values(mech, X, dd, jj, (True, True, True, True, two_norm))
+    out = {n: vals[i] for i, n in enumerate(VALUE_NAMES)}
     if not two_norm:
         del out["cond_2"]
     return out, reach
 
 
+def _merge(stats, counts, extra, dd, want):
+    """Add the values extra (5, K) of designs dd (K,) to the kernel's per-design
+    (sum, min, max, centred sum of squares) (5, 4, D) and counts (D,)."""
+    D = counts.shape[0]
+    nb = np.bincount(dd, minlength=D)
+    n = counts + nb
+    has_a, has_b = counts > 0, nb > 0
+    stats = stats.copy()
+    with np.errstate(all="ignore"):
+        for v in range(5):
+            if not want[v]:
+                continue
+            x = extra[v]
+            sb = np.bincount(dd, weights=x, minlength=D)
+            mb = sb / nb
+            m2b = np.bincount(dd, weights=(x - mb[dd]) ** 2, minlength=D)
+            lob = np.full(D, np.inf)
+            np.minimum.at(lob, dd, x)
+            hib = np.full(D, -np.inf)
+            np.maximum.at(hib, dd, x)
+            sa, loa, hia, m2a = stats[v]
+            delta = mb - sa / counts
+            both = has_a & has_b
+            stats[v, 0] = np.where(both, sa + sb, np.where(has_b, sb, sa))
+            stats[v, 1] = np.where(both, np.minimum(loa, lob), np.where(has_b, lob, loa))
+            stats[v, 2] = np.where(both, np.maximum(hia, hib), np.where(has_b, hib, hia))
+            stats[v, 3] = np.where(both, m2a + m2b + delta * delta * counts * nb / n, np.where(has_b, m2b, m2a))
+    return stats, n
+
+
 def p4s_summary(mech, X, want=(True, True, True, True, True)):
     """Per-design statistics over the reachable points: (stats (5, 4, D) with
-    mean/min/max/std of dynamic, sigma_min^2, sigma_min, cond_fro, cond_2;
-    counts (D,); reachable (D, N))."""
+    mean/min/max/std of dynamic, sigma_min^2, sigma_min, cond_fro, cond_2 (NaN
+    for values not wanted and for designs without a reachable point); counts
+    (D,); reachable (D, N)).  Points the kernel flags as ill-conditioned are
+    evaluated with the numpy path and merged in."""
     k = kernels()
     if k is None:
         raise RuntimeError(f"compiled kernels not available: {_import_error}")
     P = design_constants(mech)
     xs, ys, zs = _points(X)
     w = np.array([bool(v) for v in want], dtype=np.bool_)
-    return k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
+    sums, counts, codes = k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
+    dd, jj = np.nonzero(codes == 2)
+    if len(dd):
+        sums, counts = _merge(sums, counts, _lapack_values(mech, X, dd, jj, w), dd, w)
+    out = np.full_like(sums, np.nan)
+    ok = counts > 0
+    with np.errstate(all="ignore"):
+        mean = sums[:, 0] / counts
+        out[:, 0] = np.where(ok, mean, np.nan)
+        out[:, 1] = np.where(ok, sums[:, 1], np.nan)
+        out[:, 2] = np.where(ok, sums[:, 2], np.nan)
+        out[:, 3] = np.where(ok & np.isfinite(mean), np.sqrt(sums[:, 3] / counts), np.nan)
+    out[~w] = np.nan
+    return out, counts, codes != 0
 
 
 def _plan(config, names):

@@ -56,6 +56,14 @@ _C1R, _C1I = 0.19364836492632637, -0.3354088068550356
 _C2R, _C2I = 0.0494623499389, -0.08567130315592646
 _C3R, _C3I = 0.06931901548496303, 0.04002135225020323
 
+#: cond_2^2 beyond which J counts as numerically rank deficient: (1 / (3 eps))^2
+_RANKDEF = (1.0 / (3.0 * 2.220446049250313e-16)) ** 2
+#: points whose ||J||_F^2 ||J^-1||_2^2 (between cond_2^2 and 3 cond_2^2) exceeds
+#: this are flagged (reach code 2) for the caller to evaluate with LAPACK: near
+#: a singularity the adjugate inverse loses about eps cond^2 where the SVD
+#: loses eps cond.  1e4 flags cond_2 above 58 to 100.
+HARD = 1.0e4
+
 _NJIT = dict(cache=True, error_model="numpy", fastmath=False)
 # the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 # order is still fixed by the code, so results do not depend on threads)
@@ -152,7 +160,7 @@ def lambda_max_psd(a00, a11, a22, a01, a02, a12):
 
 @njit(inline="always", **_NJIT)
 def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two):
-    """(reachable, dynamic, sigma_min(J)^2, sigma_min(J), cond_F(J), cond_2(J)) at one point."""
+    """(reach code, dynamic, sigma_min(J)^2, sigma_min(J), cond_F(J), cond_2(J)) at one point."""
     # ---- inverse kinematics (the operations of P4S.branch_state, in order)
     w00 = x + off * E00
     w01 = y + off * E01
@@ -207,16 +215,6 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
     u20 = n20 * is2
     u21 = n21 * is2
     u22 = n22 * is2
-    # ---- platform mass matrix
-    p00 = c0 + alpha * (u00 * u00 + u10 * u10 + u20 * u20) + 2.0 * beta * (m00 * u00 + m10 * u10 + m20 * u20)
-    p11 = c0 + alpha * (u01 * u01 + u11 * u11 + u21 * u21) + 2.0 * beta * (m01 * u01 + m11 * u11 + m21 * u21)
-    p22 = c0 + alpha * (u02 * u02 + u12 * u12 + u22 * u22) + 2.0 * beta * (m02 * u02 + m12 * u12 + m22 * u22)
-    p01 = (alpha * (u00 * u01 + u10 * u11 + u20 * u21)
-           + beta * (m00 * u01 + m10 * u11 + m20 * u21 + u00 * m01 + u10 * m11 + u20 * m21))
-    p02 = (alpha * (u00 * u02 + u10 * u12 + u20 * u22)
-           + beta * (m00 * u02 + m10 * u12 + m20 * u22 + u00 * m02 + u10 * m12 + u20 * m22))
-    p12 = (alpha * (u01 * u02 + u11 * u12 + u21 * u22)
-           + beta * (m01 * u02 + m11 * u12 + m21 * u22 + u01 * m02 + u11 * m12 + u21 * m22))
     # ---- J^-T rows r_i = s_i (n_j x n_k) / det N
     a00 = n11 * n22 - n12 * n21
     a01 = n12 * n20 - n10 * n22
@@ -242,23 +240,35 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
     r20 = a20 * f2
     r21 = a21 * f2
     r22 = a22 * f2
-    # ---- dynamic: M = J^-T M_p, rows M_p r_i; sigma_max(M)^2 = lambda_max(M M^T)
-    M00 = p00 * r00 + p01 * r01 + p02 * r02
-    M01 = p01 * r00 + p11 * r01 + p12 * r02
-    M02 = p02 * r00 + p12 * r01 + p22 * r02
-    M10 = p00 * r10 + p01 * r11 + p02 * r12
-    M11 = p01 * r10 + p11 * r11 + p12 * r12
-    M12 = p02 * r10 + p12 * r11 + p22 * r12
-    M20 = p00 * r20 + p01 * r21 + p02 * r22
-    M21 = p01 * r20 + p11 * r21 + p12 * r22
-    M22 = p02 * r20 + p12 * r21 + p22 * r22
-    g00 = M00 * M00 + M01 * M01 + M02 * M02
-    g11 = M10 * M10 + M11 * M11 + M12 * M12
-    g22 = M20 * M20 + M21 * M21 + M22 * M22
-    g01 = M00 * M10 + M01 * M11 + M02 * M12
-    g02 = M00 * M20 + M01 * M21 + M02 * M22
-    g12 = M10 * M20 + M11 * M21 + M12 * M22
-    dyn = math.sqrt(lambda_max_psd(g00, g11, g22, g01, g02, g12))
+    # ---- dynamic: M = J^-T M_p.  With R = J^-T (rows r_k), R u_i = e_i exactly,
+    # so M = c0 R + sum_i [alpha e_i u_i^T + beta (R m_i) u_i^T + beta e_i m_i^T]:
+    # row k = c0 r_k + alpha u_k + beta m_k + beta sum_i (r_k.m_i) u_i, which
+    # keeps the cancellation of R against the large u_i u_i^T terms of M_p out.
+    g00 = r00 * m00 + r01 * m01 + r02 * m02
+    g01 = r00 * m10 + r01 * m11 + r02 * m12
+    g02 = r00 * m20 + r01 * m21 + r02 * m22
+    g10 = r10 * m00 + r11 * m01 + r12 * m02
+    g11 = r10 * m10 + r11 * m11 + r12 * m12
+    g12 = r10 * m20 + r11 * m21 + r12 * m22
+    g20 = r20 * m00 + r21 * m01 + r22 * m02
+    g21 = r20 * m10 + r21 * m11 + r22 * m12
+    g22 = r20 * m20 + r21 * m21 + r22 * m22
+    M00 = c0 * r00 + alpha * u00 + beta * (m00 + g00 * u00 + g01 * u10 + g02 * u20)
+    M01 = c0 * r01 + alpha * u01 + beta * (m01 + g00 * u01 + g01 * u11 + g02 * u21)
+    M02 = c0 * r02 + alpha * u02 + beta * (m02 + g00 * u02 + g01 * u12 + g02 * u22)
+    M10 = c0 * r10 + alpha * u10 + beta * (m10 + g10 * u00 + g11 * u10 + g12 * u20)
+    M11 = c0 * r11 + alpha * u11 + beta * (m11 + g10 * u01 + g11 * u11 + g12 * u21)
+    M12 = c0 * r12 + alpha * u12 + beta * (m12 + g10 * u02 + g11 * u12 + g12 * u22)
+    M20 = c0 * r20 + alpha * u20 + beta * (m20 + g20 * u00 + g21 * u10 + g22 * u20)
+    M21 = c0 * r21 + alpha * u21 + beta * (m21 + g20 * u01 + g21 * u11 + g22 * u21)
+    M22 = c0 * r22 + alpha * u22 + beta * (m22 + g20 * u02 + g21 * u12 + g22 * u22)
+    G00 = M00 * M00 + M01 * M01 + M02 * M02
+    G11 = M10 * M10 + M11 * M11 + M12 * M12
+    G22 = M20 * M20 + M21 * M21 + M22 * M22
+    G01 = M00 * M10 + M01 * M11 + M02 * M12
+    G02 = M00 * M20 + M01 * M21 + M02 * M22
+    G12 = M10 * M20 + M11 * M21 + M12 * M22
+    dyn = math.sqrt(lambda_max_psd(G00, G11, G22, G01, G02, G12))
     # ---- stiffness: sigma_min(J)^2 = 1 / lambda_max(R R^T)
     h00 = r00 * r00 + r01 * r01 + r02 * r02
     h11 = r10 * r10 + r11 * r11 + r12 * r12
@@ -273,14 +283,22 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
     uu0 = u00 * u00 + u01 * u01 + u02 * u02
     uu1 = u10 * u10 + u11 * u11 + u12 * u12
     uu2 = u20 * u20 + u21 * u21 + u22 * u22
-    fro = math.sqrt((uu0 + uu1 + uu2) * (h00 + h11 + h22))
+    fsq = uu0 + uu1 + uu2
+    fro = math.sqrt(fsq * (h00 + h11 + h22))
     if want_two:
         k01 = u00 * u10 + u01 * u11 + u02 * u12
         k02 = u00 * u20 + u01 * u21 + u02 * u22
         k12 = u10 * u20 + u11 * u21 + u12 * u22
-        two = math.sqrt(lambda_max_psd(uu0, uu1, uu2, k01, k02, k12) * lh)
+        c2sq = lambda_max_psd(uu0, uu1, uu2, k01, k02, k12) * lh
+        two = math.sqrt(c2sq)
     else:
+        c2sq = fsq * lh  # within a factor 3 of cond_2^2
         two = 0.0
+    # numerically rank deficient as numpy.linalg.matrix_rank (and indices.cond_*)
+    # decides: sigma_min <= 3 eps sigma_max
+    rankdef = c2sq >= _RANKDEF
+    fro = np.inf if rankdef else fro
+    two = np.inf if rankdef else two
     bad = sing | flat
     inf = np.inf
     dyn = inf if bad else dyn
@@ -288,13 +306,17 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
     st1 = 0.0 if bad else st1
     fro = inf if bad else fro
     two = inf if bad else two
-    return reach, dyn, st2, st1, fro, two
+    # reach code: 0 unreachable, 1 reachable, 2 reachable but ill-conditioned
+    # (or singular): left to the LAPACK path by the caller
+    easy = (c2sq < HARD) & (not bad)
+    code = (1.0 if easy else 2.0) if reach else 0.0
+    return code, dyn, st2, st1, fro, two
 
 
 @njit(**_NJIT)
 def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
     """Local values of design d at points lo..hi-1 into the flat buffer buf
-    (6 CHUNK): rows (reachable as 1.0/0.0, dynamic, sigma_min^2, sigma_min,
+    (6 CHUNK): rows (reach code 0/1/2 as a float, dynamic, sigma_min^2, sigma_min,
     cond_F, cond_2) of CHUNK each.  One write array at constant row offsets and
     no calls in the loop: LLVM vectorizes it."""
     off = P[d, 0]
@@ -315,7 +337,7 @@ def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
     for j in range(hi - lo):
         r, a, b, c, e, f = _point(xs[lo + j], ys[lo + j], zs[lo + j], off, iL, Lsq, c0, alpha, beta,
                                   m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two)
-        buf[j] = 1.0 if r else 0.0
+        buf[j] = r
         buf[CHUNK + j] = a
         buf[2 * CHUNK + j] = b
         buf[3 * CHUNK + j] = c
@@ -325,12 +347,13 @@ def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
 
 @njit(parallel=True, **_NJIT)
 def p4s_local(P, xs, ys, zs, want_two):
-    """Local values (NVAL, D, N) and the reachable mask (D, N) for D designs
-    (rows of P, see design_constants) at the N points (xs, ys, zs)."""
+    """Local values (NVAL, D, N) and the reach codes (D, N) (0 unreachable,
+    1 reachable, 2 reachable but ill-conditioned) for D designs (rows of P, see
+    design_constants) at the N points (xs, ys, zs)."""
     D = P.shape[0]
     N = xs.shape[0]
     vals = np.empty((NVAL, D, N))
-    reach = np.empty((D, N), dtype=np.bool_)
+    reach = np.empty((D, N), dtype=np.int8)
     nch = (N + CHUNK - 1) // CHUNK
     for t in prange(D * nch):
         d = t // nch
@@ -339,7 +362,7 @@ def p4s_local(P, xs, ys, zs, want_two):
         buf = np.empty(6 * CHUNK)
         _chunk(P, d, xs, ys, zs, lo, hi, True, want_two, buf)
         for j in range(hi - lo):
-            reach[d, lo + j] = buf[j] != 0.0
+            reach[d, lo + j] = np.int8(buf[j])
             for v in range(NVAL):
                 vals[v, d, lo + j] = buf[(v + 1) * CHUNK + j]
     return vals, reach
@@ -347,16 +370,16 @@ def p4s_local(P, xs, ys, zs, want_two):
 
 @njit(**_NJIT_RED)
 def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
-    """Values of design d at points lo..hi-1 (reach row written), then for each
-    wanted value its sum, min, max and centred sum of squares over the
-    reachable points into out (NVAL, 4); returns the count."""
+    """Values of design d at points lo..hi-1 (reach codes written), then for
+    each wanted value its sum, min, max and centred sum of squares over the
+    points of code 1 into out (NVAL, 4); returns their count."""
     n = hi - lo
     _chunk(P, d, xs, ys, zs, lo, hi, want[STIFF1], want_two, buf)
     k = 0
     for j in range(n):
-        r = buf[j] != 0.0
-        reach[j] = r
-        k += 1 if r else 0
+        r = buf[j]
+        reach[j] = np.int8(r)
+        k += 1 if r == 1.0 else 0
     for v in range(NVAL):
         if not want[v]:
             continue
@@ -365,7 +388,7 @@ def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
         lo_v = np.inf
         hi_v = -np.inf
         for j in range(n):
-            r = buf[j] != 0.0
+            r = buf[j] == 1.0
             x = buf[o + j]
             s += x if r else 0.0
             xl = x if r else np.inf
@@ -377,7 +400,7 @@ def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
             mu = s / k
             for j in range(n):
                 e = buf[o + j] - mu
-                m2 += e * e if buf[j] != 0.0 else 0.0
+                m2 += e * e if buf[j] == 1.0 else 0.0
         out[v, 0] = s
         out[v, 1] = lo_v
         out[v, 2] = hi_v
@@ -387,10 +410,10 @@ def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
 
 @njit(parallel=True, **_NJIT)
 def p4s_summary(P, xs, ys, zs, want, want_two):
-    """Per-design mean, min, max, std over the reachable points of the wanted
-    local values (want: NVAL booleans): returns stats (NVAL, 4, D) with
-    stats[:, 0..3] = mean, min, max, std (NaN where no point is reachable),
-    the counts (D,) and the reachable mask (D, N).
+    """Per-design sums over the points of reach code 1 of the wanted local
+    values (want: NVAL booleans): returns stats (NVAL, 4, D) with stats[:, 0..3]
+    = sum, min, max and centred sum of squares, the counts (D,) of code-1
+    points and the reach codes (D, N) (see p4s_local).
 
     Work is split in fixed chunks of CHUNK points per design; each chunk keeps
     its count, sum, min, max and centred sum of squares, and the chunks of a
@@ -400,7 +423,7 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
     D = P.shape[0]
     N = xs.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
-    reach = np.empty((D, N), dtype=np.bool_)
+    reach = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
     cnt = np.zeros((D, nch), dtype=np.int64)
     for t in prange(D * nch):
@@ -419,6 +442,8 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
 
 @njit(**_NJIT)
 def _combine(d, nch, want, cnt, part, stats, counts):
+    """Chunks of design d in order: count, sum, min, max, and the centred sum
+    of squares (Chan et al.'s pairwise update)."""
     k = 0
     for c in range(nch):
         k += cnt[d, c]
@@ -443,10 +468,10 @@ def _combine(d, nch, want, cnt, part, stats, counts):
             if kc > 0:
                 e = part[d, c, v, 0] / kc - mu
                 m2 += part[d, c, v, 3] + kc * (e * e)
-        stats[v, 0, d] = mu
+        stats[v, 0, d] = s
         stats[v, 1, d] = lo_v
         stats[v, 2, d] = hi_v
-        stats[v, 3, d] = math.sqrt(m2 / k) if math.isfinite(mu) else np.nan
+        stats[v, 3, d] = m2
 
 
 @njit(parallel=True, **_NJIT)
