@@ -176,3 +176,18 @@ def test_run_command_errors_are_one_line(tmp_path):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
     r = _cli("run")
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
+    """An index with weight 0 gets no single-objective runs and no term in the
+    weighted sum, but is still an objective of the Pareto front."""
+    text = SMALL.read_text().replace(
+        "optimizer: {population: 16, generations: 8,",
+        "optimizer: {weights: {isotropy: 0}, population: 10, generations: 3,")
+    cfg_path = tmp_path / "w0.yaml"
+    cfg_path.write_text(text)
+    res = start_run(load_config(cfg_path), seed=1, out=tmp_path / "runs")
+    assert set(res.results["normalization"]) == {"dynamic", "stiffness"}
+    assert "single_isotropy_min" not in res.stages
+    pr = res.results["pareto"]["pareto_nsga2"]
+    assert pr["normalization"]["terms"] == ["dynamic", "-stiffness", "isotropy"]

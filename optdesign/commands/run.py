@@ -39,8 +39,9 @@ def execute(args, after=None, cfg=None) -> int:
     except RunFolderError as exc:
         raise UsageError(str(exc)) from None
     except Interrupted as exc:
-        print("optdesign: run interrupted; the last finished generation is saved. "
-              "Finish it with: optdesign run --resume <RUN_DIR> (see runs/)", file=sys.stderr)
+        where = getattr(exc, "folder", None) or "<RUN_DIR>"
+        print(f"optdesign: run interrupted; every finished generation is saved. "
+              f"Finish it with: optdesign run --resume {where}", file=sys.stderr)
         return 130 if exc.signum == 2 else 143
     except RuntimeError as exc:
         print(f"optdesign: run failed: {exc}", file=sys.stderr)

@@ -173,6 +173,9 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
         history.append(rec)
         folder.save_checkpoint(stage.name, {"algorithm": algorithm, "history": history})
         progress.update(rec["generation"], rec.get("best_objective"))
+        if budget.get("stop") is not None and budget["stop"].signum is not None and algorithm.has_next():
+            progress.finish()
+            budget["stop"].check()
         if budget.get("left") is not None:
             budget["left"] -= 1
             if budget["left"] <= 0:
@@ -261,14 +264,38 @@ class PipelineResult:
     stages: dict = field(default_factory=dict)
 
 
-def _install_sigterm():
-    def handler(signum, frame):
-        raise Interrupted(signum)
+class _StopRequest:
+    """SIGINT/SIGTERM during a run: the first signal asks the GA to stop after the
+    generation in progress (its checkpoint is then on disk); a second one stops
+    at once.  Stopping at a generation boundary never interrupts a compiled
+    kernel or a file write half-way."""
 
-    try:
-        return signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not in the main thread (e.g. a joblib worker thread)
-        return None
+    def __init__(self):
+        self.signum: int | None = None
+        self.previous: dict[int, object] = {}
+
+    def handler(self, signum, frame):
+        if self.signum is not None:
+            raise Interrupted(signum)
+        self.signum = signum
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self.previous[sig] = signal.signal(sig, self.handler)
+            except ValueError:  # not in the main thread (e.g. a worker thread)
+                return
+
+    def restore(self) -> None:
+        for sig, old in self.previous.items():
+            try:
+                signal.signal(sig, old)
+            except (ValueError, TypeError):
+                pass
+
+    def check(self) -> None:
+        if self.signum is not None:
+            raise Interrupted(self.signum)
 
 
 def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None,
@@ -283,10 +310,11 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     m0 = folder.read_manifest()
     wall_before = float(m0.get("wall_time_s") or 0.0)
     folder.update_manifest(status="running")
-    old = _install_sigterm()
+    stop = _StopRequest()
+    stop.install()
     ws = workspace_of(cfg)
     stages: dict[str, dict] = {}
-    budget = {"left": stop_after}
+    budget = {"left": stop_after, "stop": stop}
 
     def run(stage: Stage, i: int, terms, gens: int, factory):
         prob = DesignProblem(cfg, terms, ws)
@@ -329,19 +357,18 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
 
         write_report(cfg, folder, results, stages)
         return PipelineResult(folder, results, stages)
-    except (KeyboardInterrupt, Interrupted):
+    except KeyboardInterrupt as exc:
         folder.update_manifest(status="interrupted", wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
-        raise
+        if not isinstance(exc, Interrupted):
+            exc = Interrupted(signal.SIGINT)
+        exc.folder = folder.path
+        raise exc from None
     except Exception as exc:
         folder.update_manifest(status="failed", error=f"{type(exc).__name__}: {exc}",
                                wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         raise
     finally:
-        if old is not None:
-            try:
-                signal.signal(signal.SIGTERM, old)
-            except ValueError:
-                pass
+        stop.restore()
 
 
 def _now_iso() -> str:
@@ -413,15 +440,17 @@ def _place_against_front(cfg: Config, s: dict, results: dict, lo: dict, hi: dict
     scale_lo, scale_hi = [], []
     for t in terms:
         k = t.lstrip("-")
+        col = front[:, terms.index(t)] if len(front) else np.array([0.0, 1.0])
         if k in lo:
             a, b = (lo[k], hi[k]) if cfg.indices[k].sense == "min" else (-hi[k], -lo[k])
-        else:  # extra objective: the range of its parameters' bounds over the front and designs
-            col = front[:, terms.index(t)] if len(front) else np.array([0.0, 1.0])
+        elif k in EXTRA_OBJECTIVES:  # the range over its parameters' bounds and the front
             a, b = float(np.min(col)), float(np.max(col))
             fn, _, _, params = EXTRA_OBJECTIVES[k]
             corners = {p: np.array(cfg.design_variables[p].bounds or (cfg.design_variables[p].value,) * 2) for p in params}
             vals = np.asarray(fn(corners), dtype=float) * (1 if t == k else -1)
             a, b = min(a, float(vals.min())), max(b, float(vals.max()))
+        else:  # an index with weight 0 (no single-objective runs): the front's own range
+            a, b = float(np.min(col)), float(np.max(col))
         scale_lo.append(a)
         scale_hi.append(b if b > a else a + 1.0)
     scale_lo, scale_hi = np.array(scale_lo), np.array(scale_hi)
