@@ -250,3 +250,16 @@ def test_corrupted_folder_gives_one_line(tiny, tmp_path, label):
     rc, err = _main(tmp_path, ["run", "--resume", str(folder), "--quiet"])
     assert rc == 2, (label, rc, err)
     assert err.count("\n") == 1 and err.startswith("optdesign: error: ") and "Traceback" not in err, err
+
+
+def test_written_files_have_the_usual_permissions(tmp_path):
+    """Atomic writes give a file the mode a plain open() would (0o666 less the
+    umask), not the 0o600 of a temporary file."""
+    from optdesign.io import atomic_write_text
+
+    mask = os.umask(0o022)
+    try:
+        atomic_write_text(tmp_path / "a.txt", "x")
+        assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
+    finally:
+        os.umask(mask)
