@@ -68,6 +68,8 @@ def run(args) -> int:
     mech = cfg.build(args.design)
     z = args.z if args.z is not None else 0.5 * sum(cfg.workspace.axes["z"])
     out = Path(args.out) if args.out else Path("validation") / args.design
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out: {out} exists and is not a folder")
     sim_kw = {"timestep": args.timestep} if args.timestep else {}
     if args.timestep:
         sim_kw["solref"] = (2 * args.timestep, 1.0)
@@ -112,7 +114,10 @@ def run(args) -> int:
     print(table(["path", "peak force (N)", "max |diff| / peak", "loop gap (m)", "unbalanced (N)",
                  "tracking error (um)", "sim. loop gap (m)"], rows))
 
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out: cannot make the folder {out} ({exc.strerror or exc})") from None
     atomic_write_bytes(out / "forces.png", _forces_figure(results, args.design))
     atomic_write_bytes(out / "tracking.png", _tracking_figure(results, args.design))
     atomic_write_json(out / "summary.json", summary)
