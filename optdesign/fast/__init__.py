@@ -152,8 +152,8 @@ def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
         if want[0]:
             out[0] = local_index("dynamic", M=m.mass_matrix(Xk))
         if want[1] or want[2]:
-            out[1] = local_index("stiffness", J=J, convention="lambda_min_K", options={"k": 1.0})
             out[2] = local_index("stiffness", J=J, convention="sqrt_lambda_min_K", options={"k": 1.0})
+            out[1] = out[2] * out[2]    # the numpy path's k * s * s with k = 1
         if want[3]:
             out[3] = local_index("isotropy", J=J, convention="frobenius")
         if want[4]:
