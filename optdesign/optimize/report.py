@@ -189,9 +189,13 @@ def _plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
     any_front = next(iter(fronts.values()))
     terms = any_front["terms"]
     pairs = [(i, j) for i in range(len(terms)) for j in range(i + 1, len(terms))]
-    fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.2), squeeze=False)
+    ncol = min(3, len(pairs))
+    nrow = -(-len(pairs) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 4.2 * nrow), squeeze=False)
+    for ax in axes.flat[len(pairs):]:
+        ax.set_visible(False)
     marks = {"weighted_sum_optimum": ("*", "k"), "before": ("s", "tab:red"), "after": ("D", "tab:green")}
-    for ax, (i, j) in zip(axes[0], pairs):
+    for ax, (i, j) in zip(axes.flat, pairs):
         for name, s in fronts.items():
             F = np.array([[r[f"objective_{t}"] for t in terms] for r in s["front"]])
             ax.scatter(F[:, i], F[:, j], s=12, alpha=0.6, label=name)
@@ -210,7 +214,7 @@ def _plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
         ax.grid(alpha=0.3)
     h, lab = axes[0][0].get_legend_handles_labels()
     uniq = dict(zip(lab, h))
-    axes[0][-1].legend(uniq.values(), uniq.keys(), fontsize=8)
+    axes.flat[len(pairs) - 1].legend(uniq.values(), uniq.keys(), fontsize=8)
     fig.suptitle(f"{cfg.name}: Pareto fronts (objectives minimized; '-' = maximized index)")
     fig.tight_layout()
     _save(fig, folder.path / "pareto.png")
