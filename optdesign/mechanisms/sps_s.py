@@ -294,3 +294,19 @@ def log_misfit(ours: dict[str, np.ndarray], groups=("stiffness", "dexterity", "d
         allr = np.concatenate(logs, -1)
         allr = np.where(np.isfinite(allr), allr, np.inf)
         return np.exp(np.abs(allr).max(-1)), np.exp(shift)
+
+
+def scan_paper_ranges(h_o_values, delta_values, resolution: int = 21, jacobian: str = "omega",
+                      chunk: int = 400, **params) -> dict[str, np.ndarray]:
+    """:func:`paper_ranges` over the grid h_o x delta (k = 1, so stiffness
+    ranges are per unit leg stiffness), vectorized over the designs in chunks.
+    Returns ``h_o``, ``delta`` (G,) and the ranges with a leading axis G."""
+    H, D = np.meshgrid(np.asarray(h_o_values, float), np.asarray(delta_values, float), indexing="ij")
+    H, D = H.ravel(), D.ravel()
+    parts = []
+    for a in range(0, H.size, chunk):
+        mech = SpsS(h_o=H[a:a + chunk, None], delta=D[a:a + chunk, None], k=1.0, **params)
+        parts.append(paper_ranges(mech, resolution, jacobian))
+    out = {k: np.concatenate([p[k] for p in parts], 0) for k in parts[0]}
+    out.update(h_o=H, delta=D)
+    return out
