@@ -76,6 +76,11 @@ def kernels():
     """The compiled kernel module, or None if numba is not usable here."""
     global _kernels, _import_error
     if _kernels is None and _import_error is None:
+        # idle OpenMP workers must sleep, not spin: the optimizer alternates
+        # kernel calls with numpy (OpenBLAS) work, and on a 2-core machine
+        # spinning workers slow both down by two orders of magnitude
+        # (docs/performance.md).  Read by libgomp when numba first loads it.
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         try:
             from . import _p4s_kernels as k
             _kernels = k
