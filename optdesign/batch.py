@@ -686,8 +686,9 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
                 attempt += 1
                 if attempt > retries:
                     raise
-                print(f"batch: a worker process died ({str(exc).splitlines()[0][:80]}); "
-                      f"resubmitting {len([t for t in tasks if t.folder_name not in rows])} runs", file=sys.stderr)
+                left = len([t for t in tasks if t.folder_name not in rows])
+                print(f"batch: a worker process died ({type(exc).__name__}); resubmitting the {left} runs without "
+                      "a result (finished ones are skipped, interrupted ones resumed)", file=sys.stderr)
     elif backend == "dask":
         own = client is None
         if own:

@@ -54,7 +54,7 @@ def test_same_seed_same_result_whatever_jobs(batches):
         assert _stage_files(root / "jobs1" / t.folder_name) == _stage_files(root / "jobs2" / t.folder_name)
 
 
-def test_rerun_skips_finished_runs(batches):
+def test_rerun_skips_finished_runs(batches, capsys):
     tasks, root, rows1, _ = batches
     out = root / "jobs1"
     stamps = {t.key: (out / t.folder_name / "results.json").stat().st_mtime_ns for t in tasks}
@@ -63,6 +63,11 @@ def test_rerun_skips_finished_runs(batches):
     assert {t.key: (out / t.folder_name / "results.json").stat().st_mtime_ns for t in tasks} == stamps
     for a, b in zip(rows, rows1):
         assert all(a[k] == b[k] for k in SAME)
+    # --dry-run lists them as done (and a third seed as new) without running anything
+    assert main(["batch", str(SMALL), "--seeds", "3", "--dry-run", "--out", str(out)]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == ["done", "done", "new"]
+    assert not (out / plan([str(SMALL)], seeds=[3])[0].folder_name).exists()
     # the same config given twice, or the same seed twice, is planned once
     assert len(plan([str(SMALL), str(SMALL)], seeds=[1, 1, 2])) == 2
 

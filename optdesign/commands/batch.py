@@ -30,6 +30,8 @@ def register(sub):
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="Dask scheduler address (--backend dask)")
     p.add_argument("--timeout", type=float, default=10.0, metavar="S",
                    help="seconds to wait for the Dask scheduler and its first worker (default 10)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="validate the files and list the planned runs (new, resume or done) without running them")
     p.add_argument("--retries", type=int, default=2, metavar="R",
                    help="resubmissions of runs lost with a dead worker or failed on it (default 2)")
     p.set_defaults(func=run)
@@ -62,6 +64,18 @@ def run(args) -> int:
         if any(not 0 <= s < 2 ** 32 for s in seeds):
             raise UsageError("--seed-list: expected seeds in [0, 2^32)")
     tasks = plan(args.configs, args.seeds, seeds, pareto=args.pareto)
+    if args.dry_run:
+        from pathlib import Path
+
+        for t in tasks:
+            d = Path(args.out) / t.folder_name
+            state = "new"
+            if (d / "manifest.json").is_file():
+                state = "done" if (d / "results.json").is_file() else "resume"
+            sweep = ", ".join(f"{k}={v}" for k, v in t.sweep.items())
+            print(f"{state:6} {d}" + (f"  [{sweep}]" if sweep else ""))
+        print(f"batch: {len(tasks)} runs planned (dry run: nothing was run)", file=sys.stderr)
+        return 0
     where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
     print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
 
