@@ -153,8 +153,8 @@ class UpsUprS(Mechanism):
 
     def forward(self, Q: np.ndarray) -> np.ndarray:
         """The solution in the paper's assembly mode, (N, 2): of all the roots
-        in the domain, the one with the largest cos(theta) cos(psi) (B1 highest
-        above A1, z of eq. 13 = R cos(theta); ties by cos(psi)); NaN where there is none.
+        in the domain, the one with the largest cos(theta) cos(psi), i.e. the one
+        nearest the home pose theta = psi = 0 in that sense; NaN where there is none.
         Every Table 2 answer of the paper is in this mode (see docs/reproduction.md)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         roots = solve_all(self, Q.reshape(-1, 2)).roots
