@@ -236,3 +236,28 @@ def test_configs_evaluate_and_atlas(tmp_path):
     g = np.linspace(-0.5, 0.5, 101)
     X = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
     assert np.max(np.linalg.det(opt.build("paper").jacobian(X))) < 0
+
+
+def test_screw_theory_of_the_joints_two_rotations_and_no_independent_z_rotation():
+    """The mechanism of section 1.1 from its joint screws (optdesign.screws):
+    at random configurations the platform twist space is two rotations about
+    A1, spanned by x1 and u2 = Rx(alpha) y; a rotation about z1 is not in it (no
+    independent rotation about z).  In the paper's RPY angles the same motion
+    has phi = atan(sin(theta) tan(psi)), not 0 (docs/reproduction.md)."""
+    from optdesign import screws
+    from optdesign.mechanisms.ups_upr_s import joint_screws
+
+    rng = np.random.default_rng(8)
+    for a, b in rng.uniform(-0.8, 0.8, (6, 2)):
+        j = joint_screws(a, b)
+        T = screws.platform_twist_space(j["chains"], length_scale=0.26)
+        assert T.shape[0] == 2 and screws.motion_type(T, length_scale=0.26) == (2, 0)
+        ref = np.stack([screws.revolute([1, 0, 0], [0, 0, 0]), screws.revolute(j["u2"], [0, 0, 0])])
+        assert screws.same_span(T, ref, length_scale=0.26)
+        assert not screws.contains(T, screws.revolute([0, 0, 1], [0, 0, 0]), length_scale=0.26)
+        Q = j["Q"]
+        phi = np.arctan2(Q[1, 0], Q[0, 0])
+        theta = -np.arcsin(Q[2, 0])
+        psi = np.arctan2(Q[2, 1], Q[2, 2])
+        assert phi == pytest.approx(np.arctan(np.sin(theta) * np.tan(psi)), abs=1e-12)
+        assert abs(phi) > 1e-3

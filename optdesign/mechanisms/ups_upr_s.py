@@ -198,6 +198,39 @@ class UpsUprS(Mechanism):
                          np.sum(c12 * c13, -1) / (R0 ** 2 * b10 * b20)], -1)
 
 
+def joint_screws(alpha: float, beta: float, params: Mapping[str, float] | None = None) -> dict:
+    """The mechanism of section 1.1 built from its joints (not the model of
+    section 2), at the configuration reached by turning the UPR chain's
+    U joint by ``alpha`` about x1 and the platform by ``beta`` about the U's
+    second axis u2 = Rx(alpha) y: platform orientation Q = Rx(alpha) Ry(beta),
+    B1 = Q (0, 0, R) at the end of the link A1B1 fixed to the platform.
+
+    Returns ``chains`` (the joint twists of S, UPR, UPS as (k, 6) arrays, in
+    optdesign.screws conventions), ``actives`` (the prismatic joints), ``Q``,
+    the points ``A``, ``B`` (3, 3), and ``u2``.
+    """
+    from .. import screws
+
+    p = dict(PAPER_PARAMETERS, **(params or {}))
+    ca_, sa_, cb_, sb_ = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+    Rx = np.array([[1, 0, 0], [0, ca_, -sa_], [0, sa_, ca_]])
+    Ry = np.array([[cb_, 0, sb_], [0, 1, 0], [-sb_, 0, cb_]])
+    Q = Rx @ Ry
+    A = np.array([[0, 0, 0], [p["a1"], 0, 0], [0, p["a2"], 0]], float)
+    B = np.stack([Q @ [0, 0, p["R"]], Q @ [p["b1"], 0, p["R"]], Q @ [0, p["b2"], p["R"]]])
+    ex, ey = np.eye(3)[0], np.eye(3)[1]
+    u2 = Rx @ ey
+    d2 = B[1] - A[1]
+    d3 = B[2] - A[2]
+    u3 = np.cross(ey, d3)
+    S = screws.spherical(A[0])
+    UPR = np.stack([screws.revolute(ex, A[1]), screws.revolute(u2, A[1]), screws.prismatic(d2),
+                    screws.revolute(u2, B[1])])
+    UPS = np.concatenate([np.stack([screws.revolute(ey, A[2]), screws.revolute(u3, A[2]),
+                                    screws.prismatic(d3)]), screws.spherical(B[2])])
+    return {"chains": [S, UPR, UPS], "actives": [None, 2, 2], "Q": Q, "A": A, "B": B, "u2": u2}
+
+
 def rot_zyx(phi, s, c, t, d) -> np.ndarray:
     """Rz(phi) Ry(theta) Rx(psi) (eq. 1) from phi and the sines/cosines of theta, psi."""
     cf, sf = np.cos(phi), np.sin(phi)
