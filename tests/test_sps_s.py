@@ -196,3 +196,26 @@ def test_config_evaluates():
     assert res["reachable_fraction"] == 1.0
     assert res["stiffness_phi"]["min"] == pytest.approx(0.0, abs=1e-9)      # the home singularity
     assert 0.0 < res["dexterity"]["mean"] < 1 / 3
+
+
+def test_jacobian_eq10_against_screw_theory():
+    """Independent check with optdesign.screws: the chains S-P-S (x3) and the
+    middle S joint at W give a platform twist space of three rotations about W,
+    and the actuation Jacobian from the screws (Joshi-Tsai transmission
+    wrenches) restricted to rotations about W equals eq. 10."""
+    from optdesign import screws
+
+    mech = get("sps_s")(h_o=0.1, delta=20 * DEG)
+    rng = np.random.default_rng(9)
+    for x in rng.uniform(-10 * DEG, 10 * DEG, (5, 3)):
+        g = mech.legs(x[None])
+        b, L = g["b"][0], g["L"][0]
+        B = b - L
+        sps = [np.concatenate([screws.spherical(B[i]), screws.prismatic(L[i])[None], screws.spherical(b[i])])
+               for i in range(3)]
+        middle = screws.spherical(np.zeros(3))
+        T = screws.platform_twist_space(sps + [middle], length_scale=0.5)
+        assert screws.motion_type(T, length_scale=0.5) == (3, 0)
+        A = screws.actuation_jacobian(sps, [3, 3, 3], length_scale=0.5)
+        # a rotation omega about W (the origin) is the twist (omega; 0)
+        np.testing.assert_allclose(A[:, :3], mech.jacobian(x[None])[0], atol=1e-12)
