@@ -643,6 +643,20 @@ def connect_dask(scheduler: str, timeout: float = 10.0, check_version: bool = Tr
     return client
 
 
+def _check_shared_folder(client, out_abs: str) -> None:
+    """Every Dask worker must see the run folders' parent (a shared file system)."""
+    marker = Path(out_abs) / f".optdesign-batch-{os.getpid()}-{os.urandom(4).hex()}"
+    marker.write_text("")
+    try:
+        seen = client.run(os.path.exists, str(marker))
+    finally:
+        marker.unlink()
+    blind = [w for w, ok in seen.items() if not ok]
+    if blind:
+        raise BackendError(f"Dask worker {blind[0]} does not see {out_abs}; with --backend dask, --out must be "
+                           "a folder on a file system shared by this machine and every worker")
+
+
 def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, backend: str = "local",
               scheduler: str | None = None, on_result=None, retries: int = 2, timeout: float = 10.0,
               client=None) -> list[dict]:
@@ -696,6 +710,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
                 raise BackendError("--backend dask needs --scheduler tcp://HOST:PORT")
             client = connect_dask(scheduler, timeout)
         try:
+            _check_shared_folder(client, out_abs)
             with parallel_config(backend="dask", client=client, retries=retries, n_jobs=jobs or -1,
                                  wait_for_workers_timeout=timeout):
                 collect(Parallel(return_as="generator_unordered", batch_size=1, pre_dispatch="all")(

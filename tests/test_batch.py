@@ -227,3 +227,15 @@ def test_summarize_usage_errors(tmp_path, capsys):
     assert "no run folders" in capsys.readouterr().err
     assert math.isnan(group_stats([{"config": "x", "config_key": "k", "seed": 1, "status": "failed",
                                      "objective": None}])[0]["stats"]["objective"]["mean"])
+
+
+def test_dask_workers_must_see_the_run_folders(tmp_path):
+    from optdesign.batch import _check_shared_folder
+
+    class Cluster:            # a client whose second worker is on another file system
+        def run(self, fn, *args):
+            return {"tcp://10.0.0.1:1": fn(*args), "tcp://10.0.0.2:1": False}
+
+    with pytest.raises(BackendError, match=r"tcp://10.0.0.2:1 does not see .* shared"):
+        _check_shared_folder(Cluster(), str(tmp_path))
+    assert list(tmp_path.iterdir()) == []          # the marker file is removed
