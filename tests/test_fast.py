@@ -336,3 +336,18 @@ def test_forward_kinematics_kernel():
     Qbad = np.array([[0.0, 0.0, 2.0], [2.0, -2.0, 0.0]])
     with np.errstate(all="ignore"):
         assert np.array_equal(np.isnan(fast.forward_p4s(mech, Qbad)), np.isnan(mech.forward(Qbad)))
+
+
+def test_bench_command_smoke(capsys):
+    """optdesign bench runs end to end on tiny sizes (no timing is checked)."""
+    import json
+
+    from optdesign.cli import main
+
+    rc = main(["bench", "--points", "64", "--designs", "3", "--loop-points", "4", "--fk-poses", "500",
+               "--repeat", "1", "--no-reproduce", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["local"]["fast"]["points_per_s"] > 0 and out["local"]["numpy"]["points_per_s"] > 0
+    assert out["fk"]["fast"]["max_error_m"] < 1e-12
+    assert main(["bench", "--points", "0", "--no-reproduce"]) == 2

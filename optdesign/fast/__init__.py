@@ -135,7 +135,8 @@ def _points(X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != 3:
         raise ValueError(f"expected points (N, 3), got shape {X.shape}")
-    return tuple(np.ascontiguousarray(X[:, i]) for i in range(3))
+    T = np.ascontiguousarray(X.T)
+    return T[0], T[1], T[2]
 
 
 VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
@@ -230,9 +231,11 @@ def p4s_summary(mech, X, want=(True, True, True, True, True)):
     P = design_constants(mech)
     xs, ys, zs = _points(X)
     w = np.array([bool(v) for v in want], dtype=np.bool_)
-    sums, counts, codes = k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
-    dd, jj = np.nonzero(codes == 2)
-    if len(dd):
+    sums, counts, codes, nhard = k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
+    if nhard.any():
+        rows = np.flatnonzero(nhard)
+        r, jj = np.nonzero(codes[rows] == 2)
+        dd = rows[r]
         sums, counts = _merge(sums, counts, _lapack_values(mech, X, dd, jj, w), dd, w)
     out = np.full_like(sums, np.nan)
     ok = counts > 0

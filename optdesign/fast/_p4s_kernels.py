@@ -370,17 +370,21 @@ def p4s_local(P, xs, ys, zs, want_two):
 
 
 @njit(**_NJIT_RED)
-def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out):
+def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out, hard):
     """Values of design d at points lo..hi-1 (reach codes written), then for
     each wanted value its sum, min, max and centred sum of squares over the
-    points of code 1 into out (NVAL, 4); returns their count."""
+    points of code 1 into out (NVAL, 4); returns their count (and the count of
+    code-2 points in hard[0])."""
     n = hi - lo
     _chunk(P, d, xs, ys, zs, lo, hi, want[STIFF1], want_two, buf)
     k = 0
+    nh = 0
     for j in range(n):
         r = buf[j]
         reach[j] = np.int8(r)
         k += 1 if r == 1.0 else 0
+        nh += 1 if r == 2.0 else 0
+    hard[0] = nh
     for v in range(NVAL):
         if not want[v]:
             continue
@@ -414,7 +418,8 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
     """Per-design sums over the points of reach code 1 of the wanted local
     values (want: NVAL booleans): returns stats (NVAL, 4, D) with stats[:, 0..3]
     = sum, min, max and centred sum of squares, the counts (D,) of code-1
-    points and the reach codes (D, N) (see p4s_local).
+    points, the reach codes (D, N) (see p4s_local) and the counts (D,) of
+    code-2 points.
 
     Work is split in fixed chunks of CHUNK points per design; each chunk keeps
     its count, sum, min, max and centred sum of squares, and the chunks of a
@@ -427,18 +432,20 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
     reach = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
     cnt = np.zeros((D, nch), dtype=np.int64)
+    hard = np.zeros((D, nch), dtype=np.int64)
     for t in prange(D * nch):
         d = t // nch
         c = t % nch
         lo = c * CHUNK
         hi = min(lo + CHUNK, N)
         buf = np.empty(6 * CHUNK)
-        cnt[d, c] = _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach[d, lo:hi], buf, part[d, c])
+        cnt[d, c] = _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach[d, lo:hi], buf, part[d, c],
+                                 hard[d, c:c + 1])
     stats = np.full((NVAL, 4, D), np.nan)
     counts = np.zeros(D, dtype=np.int64)
     for d in prange(D):
         _combine(d, nch, want, cnt, part, stats, counts)
-    return stats, counts, reach
+    return stats, counts, reach, hard.sum(axis=1)
 
 
 @njit(**_NJIT)
