@@ -2,10 +2,8 @@
 
 * local values at random designs and poses (unreachable, near-singular and the
   double eigenvalue at the workspace centre included) equal the numpy path's
-  to 1e-12 relative where J is well conditioned (cond(J) < 300, which covers
-  the paper's design box), and to a few eps cond(J)^2 near singularities (the
-  adjugate inverse of the closed form is less accurate than LAPACK's SVD there;
-  see docs/performance.md);
+  to 1e-12 relative: the closed form itself where cond(J) < 1000, LAPACK (the
+  kernel hands those points over) beyond, where both lose about eps cond(J);
 * per-design mean/min/max/std over the reachable points, the reachable mask
   (bitwise) and the counts equal those of ``global_summary``;
 * results do not depend on the number of threads;
@@ -14,9 +12,6 @@
 No timing here: speed is measured by ``optdesign bench`` and ``benchmarks/``.
 """
 from __future__ import annotations
-
-import copy
-import math
 
 import numpy as np
 import pytest
@@ -85,9 +80,9 @@ def test_local_values_match_numpy():
 
 
 def test_raw_kernel_accuracy_near_singularities():
-    """The closed form alone (no LAPACK hand-off): 1e-12 where cond(J) < 300 and
-    within 8 eps cond(J)^2 beyond; the kernel flags (code 2) every point with
-    cond(J) >= 300 for the LAPACK path."""
+    """The closed form alone (no LAPACK hand-off): 1e-12 where cond(J) < 1000 and
+    within 50 eps cond(J) beyond (the SVD's own accuracy); the kernel flags
+    (code 2) every point with cond(J) >= 1000 for the LAPACK path."""
     rng = np.random.default_rng(5)
     mech = _mech(_designs(rng, 12))
     X = _poses(rng, 1500)
@@ -95,14 +90,14 @@ def test_raw_kernel_accuracy_near_singularities():
     raw, codes = k.p4s_local(fast.design_constants(mech), *(np.ascontiguousarray(X[:, i]) for i in range(3)), True)
     ref, reach, cond = _reference(mech, X)
     assert np.array_equal(codes != 0, reach)
-    assert np.all(codes[reach & (cond >= 300)] == 2)
+    assert np.all(codes[reach & (cond >= 1000)] == 2)
     good = reach & np.isfinite(cond)
-    tol = np.maximum(1e-12, 8 * EPS * cond[good] ** 2)
+    tol = np.maximum(1e-12, 50 * EPS * cond[good])
     for i, name in enumerate(fast.VALUE_NAMES):
         a, b = raw[i][good], ref[name][good]
         rel = np.abs(a - b) / np.abs(b)
         assert np.all(rel <= tol), (name, np.max(rel / tol))
-        wc = cond[good] < 300
+        wc = cond[good] < 1000
         assert wc.sum() > 1000 and np.max(rel[wc]) < 1e-12, name
 
 

@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from numba.core import types
+from numba.extending import intrinsic
 
 from ..mechanisms.p4s import E as _E
 
@@ -59,16 +61,64 @@ _C3R, _C3I = 0.06931901548496303, 0.04002135225020323
 #: cond_2^2 beyond which J counts as numerically rank deficient: (1 / (3 eps))^2
 _RANKDEF = (1.0 / (3.0 * 2.220446049250313e-16)) ** 2
 #: points whose ||J||_F^2 ||J^-1||_2^2 (between cond_2^2 and 3 cond_2^2) exceeds
-#: this are flagged (reach code 2) for the caller to evaluate with LAPACK: near
-#: a singularity the adjugate inverse loses about eps cond^2 where the SVD
-#: loses eps cond.  9e4 flags every point with cond_2 >= 300 (some from 173);
-#: below 300 the kernel agrees with LAPACK to 1.2e-13 (docs/performance.md).
-HARD = 9.0e4
+#: this are flagged (reach code 2) for the caller to evaluate with LAPACK, so
+#: that the fast path equals the numpy path to 1e-12 everywhere: with the
+#: compensated det N the closed form loses about eps cond(J) like the SVD, and
+#: below cond_2 = 1000 it agrees with LAPACK to 2e-13 (docs/performance.md).
+#: 1e6 flags every point with cond_2 >= 1000 (some from 577).
+HARD = 1.0e6
 
 _NJIT = dict(cache=True, error_model="numpy", fastmath=False)
 # the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 # order is still fixed by the code, so results do not depend on threads)
 _NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a * b + c with one rounding (llvm.fma: one instruction where the CPU has FMA)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+@njit(inline="always", **_NJIT)
+def _cross_dd(a1, a2, b1, b2):
+    """a1 b2 - a2 b1 as an unevaluated sum hi + lo (error-free products, TwoSum)."""
+    p = a1 * b2
+    ep = _fma(a1, b2, -p)
+    q = a2 * b1
+    eq = _fma(a2, b1, -q)
+    h = p - q
+    bb = h - p
+    eh = (p - (h - bb)) + (-q - bb)
+    return h, eh + (ep - eq)
+
+
+@njit(inline="always", **_NJIT)
+def _det3_dd(n00, n01, n02, n10, n11, n12, n20, n21, n22):
+    """det of the rows n0, n1, n2 in about twice the working precision
+    (compensated cofactor expansion): the rods of near-singular poses are
+    nearly coplanar and the plain expansion cancels to a few digits."""
+    a0, l0 = _cross_dd(n11, n12, n21, n22)
+    a1, l1 = _cross_dd(n12, n10, n22, n20)
+    a2, l2 = _cross_dd(n10, n11, n20, n21)
+    p0 = n00 * a0
+    e0 = _fma(n00, a0, -p0)
+    p1 = n01 * a1
+    e1 = _fma(n01, a1, -p1)
+    p2 = n02 * a2
+    e2 = _fma(n02, a2, -p2)
+    s = p0 + p1
+    bb = s - p0
+    es = (p0 - (s - bb)) + (p1 - bb)
+    t = s + p2
+    bb = t - s
+    et = (s - (t - bb)) + (p2 - bb)
+    return t + ((es + et) + (e0 + e1 + e2) + (n00 * l0 + n01 * l1 + n02 * l2))
 
 
 @njit(inline="always", **_NJIT)
@@ -226,7 +276,7 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
     a20 = n01 * n12 - n02 * n11
     a21 = n02 * n10 - n00 * n12
     a22 = n00 * n11 - n01 * n10
-    detN = n00 * a00 + n01 * a01 + n02 * a02
+    detN = _det3_dd(n00, n01, n02, n10, n11, n12, n20, n21, n22)
     flat = detN == 0.0
     idet = 1.0 / (detN if not flat else 1.0)
     f0 = s0 * idet
