@@ -4,8 +4,9 @@ Runs the two comparisons of ``optdesign.validation.mujoco_p4s`` on the
 paper's path (x = y = 0.001 sin(40 pi t)) and on a larger one, prints the
 agreement numbers and writes ``forces.png`` (the actuator forces from our
 model and from MuJoCo, as the paper's figures 9 and 10), ``tracking.png``
-(the platform's deviation in MuJoCo's simulation driven by our forces) and
-``summary.json`` into DIR (default ``validation/<design>``).
+(the platform's deviation in MuJoCo's simulation driven by our forces),
+``summary.json`` and the model ``p4s.xml`` (MJCF, loads in MuJoCo's viewer)
+into DIR (default ``validation/<design>``).
 """
 from __future__ import annotations
 
@@ -121,7 +122,8 @@ def run(args) -> int:
     atomic_write_bytes(out / "forces.png", _forces_figure(results, args.design))
     atomic_write_bytes(out / "tracking.png", _tracking_figure(results, args.design))
     atomic_write_json(out / "summary.json", summary)
-    print(f"wrote {out / 'forces.png'}, {out / 'tracking.png'}, {out / 'summary.json'}")
+    atomic_write_bytes(out / "p4s.xml", mv.mjcf(mech).encode())
+    print(f"wrote {out / 'forces.png'}, {out / 'tracking.png'}, {out / 'summary.json'}, {out / 'p4s.xml'} (the MuJoCo model)")
     return 0
 
 
