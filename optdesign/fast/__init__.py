@@ -332,4 +332,5 @@ def forward_p4s(mech, Q) -> np.ndarray:
         return mech.forward(Q)
     c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
     F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
-    return k.p4s_forward(F, *(np.ascontiguousarray(Q[:, i]) for i in range(3)))
+    T = np.ascontiguousarray(Q.T)
+    return k.p4s_forward(F, T[0], T[1], T[2])

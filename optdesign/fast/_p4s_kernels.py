@@ -532,27 +532,42 @@ def _combine(d, nch, want, cnt, part, stats, counts):
         stats[v, 3, d] = m2
 
 
+FK_CHUNK = 2048
+
+
+@njit(**_NJIT)
+def _fk_chunk(F, q1, q2, q3, lo, hi, buf):
+    """Forward kinematics of poses lo..hi-1 into the flat buffer buf (3 FK_CHUNK:
+    rows x, y, z): one write array at constant offsets, so LLVM vectorizes."""
+    for j in range(hi - lo):
+        x, y, z = _fk_point(F, q1[lo + j], q2[lo + j], q3[lo + j])
+        buf[j] = x
+        buf[FK_CHUNK + j] = y
+        buf[2 * FK_CHUNK + j] = z
+
+
 @njit(parallel=True, **_NJIT)
 def p4s_forward(F, q1, q2, q3):
     """Forward kinematics of one design for N stroke triples: (N, 3) positions.
 
     F = (r_b - rho, cos phi, sin phi, L^2, L) of the design.  Sphere centres
     s_i = a_i e_i + h_i z with a_i = (r_b - rho) - q_i cos phi, h_i = q_i sin phi;
-    subtracting the sphere equations gives x, y and |p|^2 as affine functions of
-    z, then a quadratic in z whose upper root is the assembly mode of the paper;
+    subtracting the sphere equations gives x and y as affine functions of z,
+    then a quadratic in z whose upper root is the assembly mode of the paper;
     one Newton step on the three sphere equations removes the round-off.
     """
     N = q1.shape[0]
     out = np.empty((N, 3))
-    nch = (N + 4095) // 4096
+    nch = (N + FK_CHUNK - 1) // FK_CHUNK
     for t in prange(nch):
-        lo = t * 4096
-        hi = min(lo + 4096, N)
-        for j in range(lo, hi):
-            x, y, z = _fk_point(F, q1[j], q2[j], q3[j])
-            out[j, 0] = x
-            out[j, 1] = y
-            out[j, 2] = z
+        lo = t * FK_CHUNK
+        hi = min(lo + FK_CHUNK, N)
+        buf = np.empty(3 * FK_CHUNK)
+        _fk_chunk(F, q1, q2, q3, lo, hi, buf)
+        for j in range(hi - lo):
+            out[lo + j, 0] = buf[j]
+            out[lo + j, 1] = buf[FK_CHUNK + j]
+            out[lo + j, 2] = buf[2 * FK_CHUNK + j]
     return out
 
 
