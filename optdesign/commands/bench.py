@@ -165,9 +165,10 @@ def local_rates(cfg, D: int, N: int, repeat: int, numpy_max: int) -> dict:
     xs, ys, zs = (np.ascontiguousarray(ws.X[:, i]) for i in range(3))
     want = np.array([True, True, False, True, False])
     k = fast.kernels()
-    k.p4s_summary(P, xs, ys, zs, want, False)
+    codes = k.p4s_summary(P, xs, ys, zs, want, False)[2]
     best, med = _best(lambda: k.p4s_summary(P, xs, ys, zs, want, False), repeat)
-    out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best}
+    out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best,
+                     "lapack_fraction": float(np.mean(codes == 2))}
     return out
 
 
@@ -274,7 +275,8 @@ def run(args) -> int:
           f"{args.repeat}:")
     print(table(["path", "designs x points", "points/s", "vs numpy"], rows))
     if loc.get("fast"):
-        print(f"first fast call (kernel load or compile): {loc['fast']['first_call_seconds']:.2f} s")
+        print(f"first fast call (kernel load or compile): {loc['fast']['first_call_seconds']:.2f} s; "
+              f"points handed to LAPACK (cond(J) >= 1000): {100 * loc['kernel']['lapack_fraction']:.2f}%")
     fk = res["fk"]
     rows = [["numpy P4S.forward", f"{fk['numpy']['poses']}", f"{fk['numpy']['poses_per_s']:,.0f}", "1", "-"]]
     if fk.get("fast"):
