@@ -307,6 +307,9 @@ def try_evaluate(config, mech, X, names):
     try:
         stats, counts, reach = p4s_summary(mech, X, want)
     except Exception as exc:  # a compile failure at first call: numpy path from now on
+        cause = exc.__cause__ or exc.__context__
+        if isinstance(cause, BaseException) and not isinstance(cause, Exception):
+            raise cause from None  # Ctrl-C or a signal inside the kernel is not a compile failure
         global _kernels, _import_error
         _kernels, _import_error = None, exc
         warnings.warn(f"optdesign.fast: compiled kernel failed ({exc}); using the numpy path", RuntimeWarning)
