@@ -241,3 +241,44 @@ def test_commands_at_the_edge_of_reachability(tmp_path):
     assert rc == 1 and err == "" and "unreachable" in out
     rc, out, err = _run(tmp_path, ["fk", "edge.yaml", "--design", "before", "0", "0", "5"])
     assert rc in (0, 1) and err == ""
+
+
+def test_no_nan_reaches_the_optimum(tmp_path):
+    """A small optimization over bounds full of unreachable and singular
+    designs (rails from 1 to 89 deg, base radius from 0.2 to 1.2 m): the
+    optimum is a feasible design with finite indices."""
+    from optdesign.optimize.runner import start_run
+
+    text = """\
+mechanism: p4s
+name: hostile_bounds
+design_variables:
+  r_a: {value: 0.25, bounds: [0.05, 0.6]}
+  r_b: {value: 0.67, bounds: [0.2, 1.2]}
+  L: 0.38
+  d: 0.08
+  phi: {value: 30, bounds: [1, 89], unit: deg}
+workspace: {type: box, axes: {x: [-0.05, 0.05], y: [-0.05, 0.05], z: 0.57}, sampling: grid, step: 0.05}
+indices: {dynamic: {}, stiffness: {}, isotropy: {}}
+optimizer: {population: 12, generations: 4, elites: 2, seed: 5}
+"""
+    (tmp_path / "h.yaml").write_text(text)
+    cfg = load_config(tmp_path / "h.yaml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = start_run(cfg, seed=5, out=tmp_path / "runs", pareto=False).results
+    design = {k: np.array([v]) for k, v in res["optimum"].items()}
+    ev = evaluate(cfg, design)
+    assert ev.reachable_fraction[0] == 1.0
+    for k in cfg.indices:
+        assert np.isfinite(res["global_indices"][k])
+        assert res["global_indices"][k] == pytest.approx(float(ev.summary[k]["mean"][0]), rel=1e-9)
+    assert np.isfinite(res["objective"])
+    # the bounds really are hostile: many sampled designs cannot reach W
+    rng = np.random.default_rng(0)
+    sample = {"r_a": rng.uniform(0.05, 0.6, 200), "r_b": rng.uniform(0.2, 1.2, 200),
+              "phi": np.radians(rng.uniform(1, 89, 200))}
+    frac = evaluate(cfg, sample).reachable_fraction
+    assert (frac < 1).mean() > 0.3
+    # and the run warned about nothing
+    assert not caught, [f"{w.category.__name__}: {str(w.message)[:200]}" for w in caught]
