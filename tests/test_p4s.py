@@ -137,7 +137,13 @@ def _well_posed(m, X):
     boundary (platform well above the plane of the three sphere centres)."""
     bs = m.branch_state(X)
     s = np.nan_to_num(bs["s"], nan=0.0)
-    ok = bs["reachable"] & (s.min(axis=-1) > 0.1)
+    # forward kinematics solves |p - s_i| = L, whose Jacobian has the rods
+    # L n_i as rows: where the three rods become coplanar (the platform meets
+    # the plane of the sphere centres) the two assembly modes merge and any
+    # solver's error grows as eps / sigma_min(n); keep away from that too
+    n = np.nan_to_num(bs["n"], nan=0.0)
+    fk_cond = np.linalg.svd(n, compute_uv=False)[..., -1]
+    ok = bs["reachable"] & (s.min(axis=-1) > 0.1) & (fk_cond > 0.1)
     return ok
 
 
