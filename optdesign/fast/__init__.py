@@ -17,9 +17,10 @@ pass (see ``docs/performance.md``).
   (``frobenius``, ``two_norm``), or an index option other than a positive ``k``
   is set.
 
-Results equal the numpy path's to about 1e-14 relative (closed-form
-eigenvalues against LAPACK), the reachable mask bitwise, and do not depend on
-the number of threads.
+Results equal the numpy path's to 1e-12 relative (typically 1e-14: closed-form
+eigenvalues against LAPACK; the kernel hands the points with cond(J) >= 1000 to
+the numpy path), the reachable mask bitwise, and do not depend on the number
+of threads.  ``forward_p4s`` is the compiled forward kinematics of one design.
 """
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ from contextlib import contextmanager
 import numpy as np
 
 __all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "available", "kernels", "import_error",
-           "design_constants", "p4s_local", "p4s_summary", "forward_p4s", "try_evaluate", "SUPPORTED"]
+           "design_constants", "p4s_local", "p4s_summary", "forward_p4s", "try_evaluate", "SUPPORTED",
+           "VALUE_NAMES"]
 
 ENV_VAR = "OPTDESIGN_FAST"
 
@@ -100,10 +102,10 @@ def import_error() -> BaseException | None:
 
 # ---------------------------------------------------------------------- 3-P(4S)
 def design_constants(mech) -> np.ndarray:
-    """Per-design constants (D, 15) of a P4S whose parameters are scalars or (D, 1)
-    (or (D,)): r_b... folded into ``rho - r_b``, L, L^2, the mass-matrix
-    coefficients c0, alpha, beta and the rail directions m_i (computed with the
-    numpy path's own expressions, so inverse kinematics agrees bitwise)."""
+    """Per-design constants (D, 15) of a P4S whose parameters are scalars, (D,)
+    or (D, 1): ``rho - r_b``, L, L^2, the mass-matrix coefficients c0, alpha,
+    beta and the nine components of the rail directions m_i (computed with the
+    numpy path's own expressions, so that inverse kinematics agrees bitwise)."""
     shape = mech.design_shape
     D = int(np.prod(shape)) if len(shape) else 1
     if len(shape) == 2 and shape[1] != 1:

@@ -18,11 +18,16 @@ Per point (design constants hoisted, see :func:`design_constants`):
   ``c0 = m_p + 3 (m_r/4 + I_r/L^2)``, ``alpha = m_s + m_r/4 + I_r/L^2``,
   ``beta = m_r/4 - I_r/L^2`` (m_r, I_r: mass and transverse inertia of the rods
   of one branch); this is ``m_p I + m_s J^T J + sum Jv^T m_r Jv + sum Jw^T I_r Jw``;
-* ``J^-T`` through the adjugate: rows ``r_i = s_i (n_j x n_k) / det N``;
-* dynamic index ``sigma_max(J^-T M_p) = sqrt(lambda_max(M M^T))``; stiffness
+* ``J^-T`` through the adjugate: rows ``r_i = s_i (n_j x n_k) / det N``, with
+  det N in compensated arithmetic (:func:`_det3_dd`);
+* ``M = J^-T M_p`` row by row as ``c0 r_k + alpha u_k + beta m_k +
+  beta sum_i (r_k.m_i) u_i`` (from ``R u_i = e_i``: M_p is never formed);
+* dynamic index ``sigma_max(M) = sqrt(lambda_max(M M^T))``; stiffness
   ``sigma_min(J)^2 = 1 / lambda_max(J^-T J^-1)`` (the smallest eigenvalue
   through the inverse); Frobenius condition ``sqrt(sum |u_i|^2 sum |r_i|^2)``;
-  2-norm condition ``sqrt(lambda_max(J J^T) lambda_max(J^-T J^-1))``.
+  2-norm condition ``sqrt(lambda_max(J J^T) lambda_max(J^-T J^-1))``;
+* a reach code: 0 unreachable, 1 reachable, 2 reachable but cond(J) >= 1000 or
+  singular, which the caller evaluates with the numpy (LAPACK) path.
 
 Only largest eigenvalues of symmetric positive semi-definite 3 x 3 matrices are
 needed; :func:`lambda_max_psd` computes them in closed form without libm calls
