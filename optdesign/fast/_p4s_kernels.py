@@ -130,23 +130,24 @@ def _det3_dd(n00, n01, n02, n10, n11, n12, n20, n21, n22):
 def lambda_max_psd(a00, a11, a22, a01, a02, a12):
     """Largest eigenvalue of a symmetric positive semi-definite 3 x 3 matrix.
 
-    With A scaled to trace 3, B = A - I, p^2 = tr(B^2)/6 and the discriminant
+    With q = tr(A)/3, B = A - q I, p^2 = tr(B^2)/6 and the discriminant
     written as a weighted sum of squares of the 2 x 2 minors of the pair
     (B, C = B^2 - 2 p^2 I) (Lagrange's identity on Parlett's Gram determinant;
     both vanish together at a double eigenvalue, so it keeps its relative
     accuracy there), the angle theta = atan2(sqrt(disc/27), det B) and
-    lambda_max = 1 + 2 p cos(theta/3).  cos(theta/3) is the real part of the
+    lambda_max = q + 2 p cos(theta/3) (no scaling: the kernel's matrices are far
+    from overflow, and ill-conditioned points are recomputed with LAPACK).  cos(theta/3) is the real part of the
     principal cube root of e^{i theta}, computed with a polynomial start and
     two Halley steps (arithmetic only, so the point loop vectorizes).
     """
     tr = a00 + a11 + a22
-    sc = 3.0 / tr
-    b00 = a00 * sc - 1.0
-    b11 = a11 * sc - 1.0
-    b22 = a22 * sc - 1.0
-    o01 = a01 * sc
-    o02 = a02 * sc
-    o12 = a12 * sc
+    q = tr * (1.0 / 3.0)
+    b00 = a00 - q
+    b11 = a11 - q
+    b22 = a22 - q
+    o01 = a01
+    o02 = a02
+    o12 = a12
     oo01 = o01 * o01
     oo02 = o02 * o02
     oo12 = o12 * o12
@@ -210,7 +211,7 @@ def lambda_max_psd(a00, a11, a22, a01, a02, a12):
         idd = 1.0 / (dr * dr + di * di)
         wr = (nr * dr + ni * di) * idd
         wi = (ni * dr - nr * di) * idd
-    lam = (1.0 + 2.0 * sp * wr) * (tr * (1.0 / 3.0))
+    lam = q + 2.0 * sp * wr
     return lam if tr > 0.0 else 0.0
 
 
