@@ -24,7 +24,15 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, durable: bool = True) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename.
+
+    The rename makes the write atomic for every reader and against a killed
+    process.  ``durable`` also flushes the file to the disk before the rename
+    (fsync), which matters only if the operating system itself goes down;
+    per-generation checkpoints skip it for speed: after an operating-system
+    crash such a checkpoint may be older than the last generation or, on some
+    file systems, empty, and resuming then says so instead of loading it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -34,7 +42,8 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
                 os.fchmod(fh.fileno(), _file_mode())
             fh.write(data)
             fh.flush()
-            os.fsync(fh.fileno())
+            if durable:
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         try:

@@ -202,7 +202,8 @@ class RunFolder:
         return d
 
     def save_checkpoint(self, stage: str, obj: Any) -> None:
-        atomic_write_bytes(self.stage_dir(stage) / "checkpoint.pkl", dumps({"format_version": FORMAT_VERSION, "state": obj}))
+        atomic_write_bytes(self.stage_dir(stage) / "checkpoint.pkl", dumps({"format_version": FORMAT_VERSION, "state": obj}),
+                           durable=False)
 
     def load_checkpoint(self, stage: str) -> Any | None:
         p = self.path / "stages" / stage / "checkpoint.pkl"

@@ -13,7 +13,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
 
 from .config import WorkspaceSpec
 
@@ -68,6 +67,8 @@ def _axis_grid(lo: float, hi: float, step: float | None, count: int | None) -> n
 def _unit_samples(kind: str, n: int, dim: int, seed: int) -> np.ndarray:
     if dim == 0:
         return np.zeros((n, 0))
+    from scipy.stats import qmc  # imported here: a second of start-up that grids never need
+
     if kind == "sobol":
         eng = qmc.Sobol(d=dim, scramble=True, seed=seed)
         m = int(math.ceil(math.log2(max(n, 2))))

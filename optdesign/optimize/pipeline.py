@@ -171,7 +171,13 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
             for j, t in enumerate(problem.terms):
                 rec[f"best_{t.label()}"] = float(np.min(F[feas, j])) if feas.any() else float("nan")
         history.append(rec)
-        folder.save_checkpoint(stage.name, {"algorithm": algorithm, "history": history})
+        # the offspring of the finished generation are already merged into the
+        # population and never read again: leave them out of the checkpoint (half its size)
+        off, algorithm.off = algorithm.off, None
+        try:
+            folder.save_checkpoint(stage.name, {"algorithm": algorithm, "history": history})
+        finally:
+            algorithm.off = off
         progress.update(rec["generation"], rec.get("best_objective"))
         if budget.get("stop") is not None and budget["stop"].signum is not None and algorithm.has_next():
             progress.finish()
