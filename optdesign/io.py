@@ -2,6 +2,7 @@
 so an interrupted program never leaves a half-written file."""
 from __future__ import annotations
 
+import functools
 import json
 import os
 import tempfile
@@ -9,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 
+@functools.lru_cache(maxsize=1)
 def _file_mode() -> int:
     """The mode a plain open() would give a new file (0o666 less the umask);
     mkstemp makes its files 0o600, unreadable to anyone else."""
