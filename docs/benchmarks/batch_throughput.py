@@ -6,9 +6,11 @@ start-up, the runs, the summary).  For Dask, a local cluster (a scheduler and
 N single-thread workers, all on 127.0.0.1) is started first and is not timed:
 it stands for an existing cluster.
 
-    python docs/benchmarks/batch_throughput.py --runs 8 --workers 1 2 4 --backends local dask
+    python docs/benchmarks/batch_throughput.py --runs 8 --workers 1 2 4 --backends local dask --repeat 2
 
-Prints a Markdown table (used in docs/scaling.md).
+The workload is ``configs/p4s_paper.yaml`` (the paper's GA: population 50, 100
+generations, 8 GA stages, the 11 x 11 workspace grid) without the Pareto
+stages, one run per seed.  Prints a Markdown table (used in docs/scaling.md).
 """
 from __future__ import annotations
 
@@ -22,23 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-CONFIG = """\
-mechanism: p4s
-name: bench
-parameters: {m_platform: 4.16, m_slider: 2.57, m_rod: 1.59, rod_Ixx: 0.0223, rod_Izz: 1.276e-4, rods_per_branch: 2, g: 9.81, k: 1.0}
-design_variables:
-  r_a: {value: 0.25, bounds: [0.21, 0.29]}
-  r_b: {value: 0.67, bounds: [0.63, 0.71]}
-  L:   {value: 0.38}
-  d:   {value: 0.12}
-  phi: {value: 30, bounds: [25, 35], unit: deg}
-workspace: {type: box, axes: {x: [-0.05, 0.05], y: [-0.05, 0.05], z: 0.57}, sampling: grid, step: 0.01}
-indices:
-  dynamic:   {kind: dynamic}
-  stiffness: {kind: stiffness, convention: lambda_min_K}
-  isotropy:  {kind: isotropy, convention: frobenius}
-optimizer: {population: 20, generations: 15, seed: 1}
-"""
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _free_port() -> int:
@@ -47,7 +33,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _cluster(n: int, tmp: Path) -> tuple[str, list[subprocess.Popen]]:
+def _cluster(n: int, tmp: Path, nanny: bool = True) -> tuple[str, list[subprocess.Popen]]:
     from distributed import Client
 
     port = _free_port()
@@ -57,7 +43,8 @@ def _cluster(n: int, tmp: Path) -> tuple[str, list[subprocess.Popen]]:
                                "--no-dashboard"], stdout=dn, stderr=dn)]
     time.sleep(2)
     for i in range(n):
-        procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", addr, "--nthreads", "1", "--no-nanny",
+        procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", addr, "--nthreads", "1",
+                                       "--nanny" if nanny else "--no-nanny",
                                        "--no-dashboard", "--host", "127.0.0.1", "--local-directory", str(tmp / f"w{i}")],
                                       stdout=dn, stderr=dn))
     with Client(addr, timeout=60) as c:
@@ -76,16 +63,14 @@ def _stop(procs: list[subprocess.Popen]) -> None:
             p.wait()
 
 
-def measure(backend: str, n: int, runs: int, tmp: Path) -> dict:
-    cfg = tmp / "bench.yaml"
-    cfg.write_text(CONFIG)
+def measure(backend: str, n: int, runs: int, tmp: Path, cfg: Path, nanny: bool = True) -> dict:
     out = tmp / f"out-{backend}-{n}-{time.monotonic_ns()}"
     cmd = [sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", str(runs), "--out", str(out)]
     procs = []
     if backend == "local":
         cmd += ["--jobs", str(n)]
     else:
-        addr, procs = _cluster(n, tmp)
+        addr, procs = _cluster(n, tmp, nanny)
         cmd += ["--backend", "dask", "--scheduler", addr]
     try:
         load0 = os.getloadavg()[0]
@@ -110,26 +95,44 @@ def main() -> None:
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2, 4])
     ap.add_argument("--backends", nargs="+", default=["local", "dask"])
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--no-nanny", action="store_true",
+                    help="start Dask workers without their nanny (which sets OMP/MKL/OPENBLAS_NUM_THREADS=1)")
+    ap.add_argument("--config", default=str(ROOT / "configs" / "p4s_paper.yaml"))
+    ap.add_argument("--numba-threads", type=int, default=None,
+                    help="NUMBA_NUM_THREADS for the batch and its workers (default: numba's, one per CPU)")
     a = ap.parse_args()
+    if a.numba_threads:
+        os.environ["NUMBA_NUM_THREADS"] = str(a.numba_threads)     # inherited by every process started below
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs, "
-          f"Python {platform.python_version()}", flush=True)
+          f"Python {platform.python_version()}, NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS', 'default')}, "
+          f"Dask workers {'without' if a.no_nanny else 'with'} nanny",
+          flush=True)
     res = []
     with tempfile.TemporaryDirectory() as d:
         for rep in range(a.repeat):
             for b in a.backends:
                 for n in a.workers:
-                    r = measure(b, n, a.runs, Path(d))
+                    r = measure(b, n, a.runs, Path(d), Path(a.config), not a.no_nanny)
                     res.append(r)
                     print(f"  {b} x{n}: {r['runs']} runs in {r['wall']:.1f} s = {r['rpm']:.1f} runs/min "
                           f"(mean run {r['per_run']:.2f} s; load {r['load'][0]:.1f} -> {r['load'][1]:.1f})", flush=True)
     print()
-    print("| backend | workers | runs | wall time (s) | runs per minute | speed-up vs 1 worker | mean time per run (s) | load average before -> after |")
-    print("|---|---:|---:|---:|---:|---:|---:|---|")
-    for r in res:
-        base = max((x["rpm"] for x in res if x["backend"] == r["backend"] and x["workers"] == 1), default=None)
-        sp = f"{r['rpm'] / base:.2f}" if base else "-"
-        print(f"| {r['backend']} | {r['workers']} | {r['runs']} | {r['wall']:.1f} | {r['rpm']:.1f} | {sp} | "
-              f"{r['per_run']:.2f} | {r['load'][0]:.1f} -> {r['load'][1]:.1f} |")
+    print("| backend | workers | runs | wall time (s), median | runs per minute, median | each repeat (runs/min) "
+          "| speed-up vs 1 worker | mean time per run (s) |")
+    print("|---|---:|---:|---:|---:|---|---:|---:|")
+    import statistics
+
+    keys = list(dict.fromkeys((r["backend"], r["workers"]) for r in res))
+    med = {k: statistics.median(x["rpm"] for x in res if (x["backend"], x["workers"]) == k) for k in keys}
+    for k in keys:
+        rs = [x for x in res if (x["backend"], x["workers"]) == k]
+        base = med.get((k[0], 1))
+        sp = f"{med[k] / base:.2f}" if base else "-"
+        each = ", ".join(f"{x['rpm']:.1f}" for x in rs)
+        print(f"| {k[0]} | {k[1]} | {rs[0]['runs']} | {statistics.median(x['wall'] for x in rs):.1f} | {med[k]:.1f} | "
+              f"{each} | {sp} | {statistics.median(x['per_run'] for x in rs):.2f} |")
+    loads = [x["load"][0] for x in res] + [x["load"][1] for x in res]
+    print(f"\n1-minute load average during the measurements: {min(loads):.1f} to {max(loads):.1f}")
 
 
 if __name__ == "__main__":
