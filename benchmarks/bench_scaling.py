@@ -64,9 +64,8 @@ def row(D, N, repeat, np_cache):
     t = _best(lambda: fast.p4s_summary(mech, X, want), repeat)
     k = fast.kernels()
     P = fast.design_constants(mech)
-    xs, ys, zs = (np.ascontiguousarray(X[:, i]) for i in range(3))
     w = np.array(want)
-    tk = _best(lambda: k.p4s_summary(P, xs, ys, zs, w, False), repeat)
+    tk = _best(lambda: k.p4s_summary(P, X, w, False), repeat)
     if D * N <= 200_000:
         tn = _best(lambda: _numpy_eval(mech, X), max(1, min(repeat, 3)))
         np_rate = D * N / tn

@@ -87,7 +87,7 @@ def test_raw_kernel_accuracy_near_singularities():
     mech = _mech(_designs(rng, 12))
     X = _poses(rng, 1500)
     k = fast.kernels()
-    raw, codes = k.p4s_local(fast.design_constants(mech), *(np.ascontiguousarray(X[:, i]) for i in range(3)), True)
+    raw, codes = k.p4s_local(fast.design_constants(mech), np.ascontiguousarray(X), True)
     ref, reach, cond = _reference(mech, X)
     assert np.array_equal(codes != 0, reach)
     assert np.all(codes[reach & (cond >= 1000)] == 2)
@@ -151,7 +151,7 @@ def test_exactly_singular_and_unreachable():
     xs = np.array([0.5, 0.25, 0.75])
     ys = np.zeros(3)
     zs = np.ones(3)
-    vals, codes = k.p4s_local(P, xs, ys, zs, True)
+    vals, codes = k.p4s_local(P, np.ascontiguousarray(np.c_[xs, ys, zs]), True)
     assert codes[0, 0] == 2 and codes[0, 1] != 0 and codes[0, 2] == 0   # singular: left to LAPACK
     assert vals[0, 0, 0] == np.inf and vals[1, 0, 0] == 0.0 and vals[2, 0, 0] == 0.0
     assert vals[3, 0, 0] == np.inf and vals[4, 0, 0] == np.inf
@@ -271,7 +271,10 @@ def test_results_do_not_depend_on_thread_count():
             numba.set_num_threads(nt)
             stats, counts, reach = fast.p4s_summary(mech, X)
             vals, reach2 = fast.p4s_local(mech, X)
-            out.append((stats, counts, reach, vals, reach2))
+            one = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=np.radians(35.0))
+            with np.errstate(all="ignore"):
+                fk = fast.forward_p4s(one, one.inverse(np.tile(X[:500], (10, 1))))
+            out.append((stats, counts, reach, vals, reach2, fk))
     finally:
         numba.set_num_threads(old)
     for o in out[1:]:
@@ -327,6 +330,13 @@ def test_forward_kinematics_kernel():
         wc = cond < 1e3
         assert np.max(err[wc]) <= 1e-12 and np.max(np.abs(P - P0)[wc]) <= 1e-12
         assert np.all(err <= 2 * err0 + 1e-13)
+    # a caller's output array, a non-contiguous input: the same values
+    out = np.full(Q.shape, 7.0)
+    assert fast.forward_p4s(mech, Q, out=out) is out
+    np.testing.assert_array_equal(out, P)
+    np.testing.assert_array_equal(fast.forward_p4s(mech, np.asfortranarray(Q)), P)
+    with pytest.raises(ValueError):
+        fast.forward_p4s(mech, Q, out=np.empty((len(Q), 3), order="F"))
     # spheres that do not meet: NaN as the numpy path
     Qbad = np.array([[0.0, 0.0, 2.0], [2.0, -2.0, 0.0]])
     with np.errstate(all="ignore"):

@@ -162,11 +162,11 @@ def local_rates(cfg, D: int, N: int, repeat: int, numpy_max: int) -> dict:
     params.update({k: dv.value for k, dv in cfg.design_variables.items()})
     params.update({k: np.asarray(v)[:, None] for k, v in designs.items()})
     P = fast.design_constants(P4S(**params))
-    xs, ys, zs = (np.ascontiguousarray(ws.X[:, i]) for i in range(3))
+    Xc = np.ascontiguousarray(ws.X, dtype=float)
     want = np.array([True, True, False, True, False])
     k = fast.kernels()
-    codes = k.p4s_summary(P, xs, ys, zs, want, False)[2]
-    best, med = _best(lambda: k.p4s_summary(P, xs, ys, zs, want, False), repeat)
+    codes = k.p4s_summary(P, Xc, want, False)[2]
+    best, med = _best(lambda: k.p4s_summary(P, Xc, want, False), repeat)
     out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best,
                      "lapack_fraction": float(np.mean(codes == 2))}
     return out

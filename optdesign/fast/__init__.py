@@ -133,12 +133,13 @@ def design_constants(mech) -> np.ndarray:
     return np.ascontiguousarray(P)
 
 
-def _points(X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    X = np.asarray(X, dtype=float)
+def _points(X) -> np.ndarray:
+    """X as a C-contiguous float (N, 3) array (no copy when it already is one:
+    the kernels read it in chunks, no transposed copy per call)."""
+    X = np.ascontiguousarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != 3:
         raise ValueError(f"expected points (N, 3), got shape {X.shape}")
-    T = np.ascontiguousarray(X.T)
-    return T[0], T[1], T[2]
+    return X
 
 
 VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
@@ -178,8 +179,7 @@ def p4s_local(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np
     if k is None:
         raise RuntimeError(f"compiled kernels not available: {_import_error}")
     P = design_constants(mech)
-    xs, ys, zs = _points(X)
-    vals, codes = k.p4s_local(P, xs, ys, zs, bool(two_norm))
+    vals, codes = k.p4s_local(P, _points(X), bool(two_norm))
     reach = codes != 0
     vals = np.where(reach[None], vals, np.nan)
     dd, jj = np.nonzero(codes == 2)
@@ -231,9 +231,8 @@ def p4s_summary(mech, X, want=(True, True, True, True, True)):
     if k is None:
         raise RuntimeError(f"compiled kernels not available: {_import_error}")
     P = design_constants(mech)
-    xs, ys, zs = _points(X)
     w = np.array([bool(v) for v in want], dtype=np.bool_)
-    sums, counts, codes, nhard = k.p4s_summary(P, xs, ys, zs, w, bool(w[4]))
+    sums, counts, codes, nhard = k.p4s_summary(P, _points(X), w, bool(w[4]))
     if nhard.any():
         rows = np.flatnonzero(nhard)
         r, jj = np.nonzero(codes[rows] == 2)
@@ -325,17 +324,27 @@ def try_evaluate(config, mech, X, names):
     return summary, reach
 
 
-def forward_p4s(mech, Q) -> np.ndarray:
+def forward_p4s(mech, Q, out=None) -> np.ndarray:
     """Forward kinematics of one design (scalar parameters) for strokes Q (N, 3)
     with the compiled kernel: platform positions (N, 3), NaN where the spheres do
     not meet; same solution (assembly mode above the sphere centres) as
-    :meth:`P4S.forward`.  Falls back to ``mech.forward`` if numba is unavailable,
-    the design is not a single one, or the fast path is disabled."""
+    :meth:`P4S.forward`.  ``out``: an optional C-contiguous float (N, 3) array
+    to write into (and return), e.g. reused over calls.  Falls back to
+    ``mech.forward`` if numba is unavailable, the design is not a single one,
+    or the fast path is disabled."""
     Q = np.asarray(Q, dtype=float)
     k = kernels() if enabled() else None
     if k is None or mech.design_shape != () or Q.ndim != 2 or Q.shape[1] != 3:
-        return mech.forward(Q)
+        P = mech.forward(Q)
+        if out is not None:
+            out[...] = P
+            return out
+        return P
     c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
     F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
-    T = np.ascontiguousarray(Q.T)
-    return k.p4s_forward(F, T[0], T[1], T[2])
+    Q = np.ascontiguousarray(Q)
+    if out is None:
+        out = np.empty(Q.shape)
+    elif out.shape != Q.shape or out.dtype != np.float64 or not out.flags.c_contiguous or not out.flags.writeable:
+        raise ValueError(f"out must be a writeable C-contiguous float64 array of shape {Q.shape}")
+    return k.p4s_forward(F, Q, out)

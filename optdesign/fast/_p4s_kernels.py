@@ -371,11 +371,25 @@ def _point(x, y, z, off, iL, Lsq, c0, alpha, beta, m00, m01, m02, m10, m11, m12,
 
 
 @njit(**_NJIT)
-def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
-    """Local values of design d at points lo..hi-1 into the flat buffer buf
-    (6 CHUNK): rows (reach code 0/1/2 as a float, dynamic, sigma_min^2, sigma_min,
-    cond_F, cond_2) of CHUNK each.  One write array at constant row offsets and
-    no calls in the loop: LLVM vectorizes it."""
+def _load_chunk(X, lo, hi, inb):
+    """Points lo..hi-1 of X (N, 3) into inb (3 CHUNK) as rows x, y, z: the
+    point loop then reads unit-stride rows (the caller's (N, 3) array is not
+    transposed, which for 10^6 points cost as much as a fifth of the kernel)."""
+    Xc = X[lo:hi]
+    for j in range(hi - lo):
+        inb[j] = Xc[j, 0]
+        inb[CHUNK + j] = Xc[j, 1]
+        inb[2 * CHUNK + j] = Xc[j, 2]
+
+
+@njit(**_NJIT)
+def _chunk(P, d, inb, n, want_s1, want_two, buf):
+    """Local values of design d at the n points of inb (rows x, y, z of CHUNK,
+    see _load_chunk) into the flat buffer buf (6 CHUNK): rows (reach code
+    0/1/2 as a float, dynamic, sigma_min^2, sigma_min, cond_F, cond_2) of CHUNK
+    each.  One write array at constant row offsets and no calls in the loop:
+    LLVM vectorizes it.  The loop reads slices indexed from 0 (no wraparound
+    select on a negative index, which made LLVM load the inputs with gathers)."""
     off = P[d, 0]
     iL = 1.0 / P[d, 1]
     Lsq = P[d, 2]
@@ -391,8 +405,11 @@ def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
     m20 = P[d, 12]
     m21 = P[d, 13]
     m22 = P[d, 14]
-    for j in range(hi - lo):
-        r, a, b, c, e, f = _point(xs[lo + j], ys[lo + j], zs[lo + j], off, iL, Lsq, c0, alpha, beta,
+    xa = inb[0:n]
+    ya = inb[CHUNK:CHUNK + n]
+    za = inb[2 * CHUNK:2 * CHUNK + n]
+    for j in range(n):
+        r, a, b, c, e, f = _point(xa[j], ya[j], za[j], off, iL, Lsq, c0, alpha, beta,
                                   m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two)
         buf[j] = r
         buf[CHUNK + j] = a
@@ -403,12 +420,12 @@ def _chunk(P, d, xs, ys, zs, lo, hi, want_s1, want_two, buf):
 
 
 @njit(parallel=True, **_NJIT)
-def p4s_local(P, xs, ys, zs, want_two):
+def p4s_local(P, X, want_two):
     """Local values (NVAL, D, N) and the reach codes (D, N) (0 unreachable,
     1 reachable, 2 reachable but ill-conditioned) for D designs (rows of P, see
-    design_constants) at the N points (xs, ys, zs)."""
+    design_constants) at the N points X (N, 3)."""
     D = P.shape[0]
-    N = xs.shape[0]
+    N = X.shape[0]
     vals = np.empty((NVAL, D, N))
     reach = np.empty((D, N), dtype=np.int8)
     nch = (N + CHUNK - 1) // CHUNK
@@ -417,7 +434,9 @@ def p4s_local(P, xs, ys, zs, want_two):
         lo = (t % nch) * CHUNK
         hi = min(lo + CHUNK, N)
         buf = np.empty(6 * CHUNK)
-        _chunk(P, d, xs, ys, zs, lo, hi, True, want_two, buf)
+        inb = np.empty(3 * CHUNK)
+        _load_chunk(X, lo, hi, inb)
+        _chunk(P, d, inb, hi - lo, True, want_two, buf)
         for j in range(hi - lo):
             reach[d, lo + j] = np.int8(buf[j])
             for v in range(NVAL):
@@ -426,13 +445,14 @@ def p4s_local(P, xs, ys, zs, want_two):
 
 
 @njit(**_NJIT_RED)
-def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out, hard):
+def _chunk_stats(P, d, X, lo, hi, want, want_two, reach, inb, buf, out, hard):
     """Values of design d at points lo..hi-1 (reach codes written), then for
     each wanted value its sum, min, max and centred sum of squares over the
     points of code 1 into out (NVAL, 4); returns their count (and the count of
     code-2 points in hard[0])."""
     n = hi - lo
-    _chunk(P, d, xs, ys, zs, lo, hi, want[STIFF1], want_two, buf)
+    _load_chunk(X, lo, hi, inb)
+    _chunk(P, d, inb, n, want[STIFF1], want_two, buf)
     k = 0
     nh = 0
     for j in range(n):
@@ -470,12 +490,12 @@ def _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach, buf, out, hard
 
 
 @njit(parallel=True, **_NJIT)
-def p4s_summary(P, xs, ys, zs, want, want_two):
+def p4s_summary(P, X, want, want_two):
     """Per-design sums over the points of reach code 1 of the wanted local
     values (want: NVAL booleans): returns stats (NVAL, 4, D) with stats[:, 0..3]
     = sum, min, max and centred sum of squares, the counts (D,) of code-1
     points, the reach codes (D, N) (see p4s_local) and the counts (D,) of
-    code-2 points.
+    code-2 points.  X: the N points (N, 3), C-contiguous.
 
     Work is split in fixed chunks of CHUNK points per design; each chunk keeps
     its count, sum, min, max and centred sum of squares, and the chunks of a
@@ -483,7 +503,7 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
     threads.
     """
     D = P.shape[0]
-    N = xs.shape[0]
+    N = X.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
     reach = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
@@ -495,7 +515,8 @@ def p4s_summary(P, xs, ys, zs, want, want_two):
         lo = c * CHUNK
         hi = min(lo + CHUNK, N)
         buf = np.empty(6 * CHUNK)
-        cnt[d, c] = _chunk_stats(P, d, xs, ys, zs, lo, hi, want, want_two, reach[d, lo:hi], buf, part[d, c],
+        inb = np.empty(3 * CHUNK)
+        cnt[d, c] = _chunk_stats(P, d, X, lo, hi, want, want_two, reach[d, lo:hi], inb, buf, part[d, c],
                                  hard[d, c:c + 1])
     stats = np.full((NVAL, 4, D), np.nan)
     counts = np.zeros(D, dtype=np.int64)
@@ -542,19 +563,34 @@ FK_CHUNK = 2048
 
 
 @njit(**_NJIT)
-def _fk_chunk(F, q1, q2, q3, lo, hi, buf):
-    """Forward kinematics of poses lo..hi-1 into the flat buffer buf (3 FK_CHUNK:
-    rows x, y, z): one write array at constant offsets, so LLVM vectorizes."""
-    for j in range(hi - lo):
-        x, y, z = _fk_point(F, q1[lo + j], q2[lo + j], q3[lo + j])
-        buf[j] = x
-        buf[FK_CHUNK + j] = y
-        buf[2 * FK_CHUNK + j] = z
+def _fk_chunk(F, Q, lo, hi, buf, out):
+    """Forward kinematics of poses lo..hi-1 of Q (N, 3) into out (N, 3).  The
+    strokes are first copied into rows of buf (6 FK_CHUNK: q1, q2, q3, then
+    x, y, z), so that the pose loop reads and writes unit-stride rows of one
+    array at constant offsets and LLVM vectorizes it; slices indexed from 0
+    avoid the wraparound select that turns loads into gathers."""
+    n = hi - lo
+    Qc = Q[lo:hi]
+    for j in range(n):
+        buf[j] = Qc[j, 0]
+        buf[FK_CHUNK + j] = Qc[j, 1]
+        buf[2 * FK_CHUNK + j] = Qc[j, 2]
+    for j in range(n):
+        x, y, z = _fk_point(F, buf[j], buf[FK_CHUNK + j], buf[2 * FK_CHUNK + j])
+        buf[3 * FK_CHUNK + j] = x
+        buf[4 * FK_CHUNK + j] = y
+        buf[5 * FK_CHUNK + j] = z
+    Oc = out[lo:hi]
+    for j in range(n):
+        Oc[j, 0] = buf[3 * FK_CHUNK + j]
+        Oc[j, 1] = buf[4 * FK_CHUNK + j]
+        Oc[j, 2] = buf[5 * FK_CHUNK + j]
 
 
 @njit(parallel=True, **_NJIT)
-def p4s_forward(F, q1, q2, q3):
-    """Forward kinematics of one design for N stroke triples: (N, 3) positions.
+def p4s_forward(F, Q, out):
+    """Forward kinematics of one design for the N stroke triples Q (N, 3) into
+    out (N, 3) (both C-contiguous); returns out.
 
     F = (r_b - rho, cos phi, sin phi, L^2, L) of the design.  Sphere centres
     s_i = a_i e_i + h_i z with a_i = (r_b - rho) - q_i cos phi, h_i = q_i sin phi;
@@ -562,18 +598,13 @@ def p4s_forward(F, q1, q2, q3):
     then a quadratic in z whose upper root is the assembly mode of the paper;
     one Newton step on the three sphere equations removes the round-off.
     """
-    N = q1.shape[0]
-    out = np.empty((N, 3))
+    N = Q.shape[0]
     nch = (N + FK_CHUNK - 1) // FK_CHUNK
     for t in prange(nch):
         lo = t * FK_CHUNK
         hi = min(lo + FK_CHUNK, N)
-        buf = np.empty(3 * FK_CHUNK)
-        _fk_chunk(F, q1, q2, q3, lo, hi, buf)
-        for j in range(hi - lo):
-            out[lo + j, 0] = buf[j]
-            out[lo + j, 1] = buf[FK_CHUNK + j]
-            out[lo + j, 2] = buf[2 * FK_CHUNK + j]
+        buf = np.empty(6 * FK_CHUNK)
+        _fk_chunk(F, Q, lo, hi, buf, out)
     return out
 
 
@@ -630,7 +661,11 @@ def _fk_point(F, qa, qb, qc):
     z = (sq - qb2) / qa2 if qb2 <= 0.0 else -qc2 / (qb2 + sq)
     x = x0 + x1 * z
     y = y0 + y1 * z
-    # one Newton step on f_i = (|p - s_i|^2 - L^2) / 2
+    # one Newton step on f_i = (|p - s_i|^2 - L^2) / 2 (Jacobian rows d_i = p - s_i),
+    # reduced to one division: rows 1 and 2 minus row 0 are the constant
+    # s_0 - s_i, whose xy part is the 2 x 2 system A inverted above, so with
+    # r_i = g_0 - g_i: (dx, dy) = (ex, ey) + (x1, y1) dz, and row 0 gives dz
+    # (its divisor d_0 . (x1, y1, 1) is the quadratic's derivative, +-sqrt(disc)).
     d00 = x - s00
     d01 = y - s01
     d02 = z - h0
@@ -643,21 +678,15 @@ def _fk_point(F, qa, qb, qc):
     g0 = 0.5 * (d00 * d00 + d01 * d01 + d02 * d02 - Lsq)
     g1 = 0.5 * (d10 * d10 + d11 * d11 + d12 * d12 - Lsq)
     g2 = 0.5 * (d20 * d20 + d21 * d21 + d22 * d22 - Lsq)
-    c00 = d11 * d22 - d12 * d21
-    c01 = d12 * d20 - d10 * d22
-    c02 = d10 * d21 - d11 * d20
-    c10 = d21 * d02 - d22 * d01
-    c11 = d22 * d00 - d20 * d02
-    c12 = d20 * d01 - d21 * d00
-    c20 = d01 * d12 - d02 * d11
-    c21 = d02 * d10 - d00 * d12
-    c22 = d00 * d11 - d01 * d10
-    dd = d00 * c00 + d01 * c01 + d02 * c02
-    ok = dd != 0.0
-    idd = 1.0 / (dd if ok else 1.0)
-    dx = (c00 * g0 + c10 * g1 + c20 * g2) * idd
-    dy = (c01 * g0 + c11 * g1 + c21 * g2) * idd
-    dz = (c02 * g0 + c12 * g1 + c22 * g2) * idd
+    r1 = g0 - g1
+    r2 = g0 - g2
+    ex = (A11 * r1 - A01 * r2) * idet
+    ey = (A00 * r2 - A10 * r1) * idet
+    den = d00 * x1 + d01 * y1 + d02
+    ok = den != 0.0
+    dz = (g0 - d00 * ex - d01 * ey) / (den if ok else 1.0)
+    dx = ex + x1 * dz
+    dy = ey + y1 * dz
     nan = np.nan
     good = disc >= 0.0
     x = (x - dx if ok else x) if good else nan
