@@ -595,8 +595,9 @@ def p4s_forward(F, Q, out):
     F = (r_b - rho, cos phi, sin phi, L^2, L) of the design.  Sphere centres
     s_i = a_i e_i + h_i z with a_i = (r_b - rho) - q_i cos phi, h_i = q_i sin phi;
     subtracting the sphere equations gives x and y as affine functions of z,
-    then a quadratic in z whose upper root is the assembly mode of the paper;
-    one Newton step on the three sphere equations removes the round-off.
+    then a quadratic in z whose upper root is the assembly mode of the paper
+    (one division for that root and the 2 x 2 solve); one Newton step on the
+    three sphere equations (one more division) removes the round-off.
     """
     N = Q.shape[0]
     nch = (N + FK_CHUNK - 1) // FK_CHUNK
@@ -639,28 +640,37 @@ def _fk_point(F, qa, qb, qc):
     A10 = s20 - s00
     A11 = s21 - s01
     det = A00 * A11 - A01 * A10
-    idet = 1.0 / det
     e0 = 0.5 * (k1 - k0)
     e1 = 0.5 * (k2 - k0)
     f0 = -(h1 - h0)
     f1 = -(h2 - h0)
-    # x = x0 + x1 z, y = y0 + y1 z
-    x0 = (A11 * e0 - A01 * e1) * idet
-    x1 = (A11 * f0 - A01 * f1) * idet
-    y0 = (A00 * e1 - A10 * e0) * idet
-    y1 = (A00 * f1 - A10 * f0) * idet
-    # sphere 0: (x - s00)^2 + (y - s01)^2 + (z - h0)^2 = L^2
-    X0 = x0 - s00
-    Y0 = y0 - s01
-    qa2 = x1 * x1 + y1 * y1 + 1.0
-    qb2 = X0 * x1 + Y0 * y1 - h0          # half of the linear coefficient
-    qc2 = X0 * X0 + Y0 * Y0 + h0 * h0 - Lsq
+    # x = (x0 + x1 z) / det, y = (y0 + y1 z) / det (Cramer, the division
+    # postponed: the quadratic below is scaled by det^2, which leaves its root
+    # unchanged, so one division serves 1 / det and the root)
+    x0 = A11 * e0 - A01 * e1
+    x1 = A11 * f0 - A01 * f1
+    y0 = A00 * e1 - A10 * e0
+    y1 = A00 * f1 - A10 * f0
+    # sphere 0: (x - s00)^2 + (y - s01)^2 + (z - h0)^2 = L^2, times det^2
+    dsq = det * det
+    X0 = x0 - s00 * det
+    Y0 = y0 - s01 * det
+    qa2 = x1 * x1 + y1 * y1 + dsq
+    qb2 = X0 * x1 + Y0 * y1 - h0 * dsq          # half of the linear coefficient
+    qc2 = X0 * X0 + Y0 * Y0 + (h0 * h0 - Lsq) * dsq
     disc = qb2 * qb2 - qa2 * qc2
     sq = math.sqrt(disc)
-    # upper root, written without cancellation
-    z = (sq - qb2) / qa2 if qb2 <= 0.0 else -qc2 / (qb2 + sq)
-    x = x0 + x1 * z
-    y = y0 + y1 * z
+    # upper root, written without cancellation: z = num / den
+    neg = qb2 <= 0.0
+    num = sq - qb2 if neg else -qc2
+    den = qa2 if neg else qb2 + sq
+    rr = 1.0 / (den * det)
+    idet = den * rr
+    z = (num * det) * rr
+    x1 = x1 * idet
+    y1 = y1 * idet
+    x = x0 * idet + x1 * z
+    y = y0 * idet + y1 * z
     # one Newton step on f_i = (|p - s_i|^2 - L^2) / 2 (Jacobian rows d_i = p - s_i),
     # reduced to one division: rows 1 and 2 minus row 0 are the constant
     # s_0 - s_i, whose xy part is the 2 x 2 system A inverted above, so with
@@ -682,9 +692,9 @@ def _fk_point(F, qa, qb, qc):
     r2 = g0 - g2
     ex = (A11 * r1 - A01 * r2) * idet
     ey = (A00 * r2 - A10 * r1) * idet
-    den = d00 * x1 + d01 * y1 + d02
-    ok = den != 0.0
-    dz = (g0 - d00 * ex - d01 * ey) / (den if ok else 1.0)
+    dnw = d00 * x1 + d01 * y1 + d02
+    ok = dnw != 0.0
+    dz = (g0 - d00 * ex - d01 * ey) / (dnw if ok else 1.0)
     dx = ex + x1 * dz
     dy = ey + y1 * dz
     nan = np.nan
