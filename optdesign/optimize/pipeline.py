@@ -147,7 +147,7 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
         extra = {"callback": callback} if callback is not None else {}
         algorithm.setup(problem, termination=("n_gen", generations), seed=seed, verbose=False, **extra)
         history = []
-    progress.start(f"{folder.path.name[:10]}:{stage.name}", generations, len(history))
+    progress.start(stage.name, generations, len(history))
     single = problem.n_obj == 1
     while algorithm.has_next():
         algorithm.next()
