@@ -666,15 +666,14 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
     worker process dies, the tasks without a result are submitted again (up
     to ``retries`` times); finished runs are then skipped and interrupted ones
     resumed.  ``dask``: joblib's Dask backend on the cluster at ``scheduler``
-    (or the given ``client``); every worker thread takes runs (``jobs`` caps
-    them), each run is one Dask task, and a task lost with its worker is
+    (or the given ``client``); every worker thread takes runs (``jobs`` is
+    not used: the cluster's size decides), each run is one Dask task, and a task lost with its worker is
     rescheduled by Dask on another worker (``retries`` more times if the task
     itself raises).
     """
     from joblib import Parallel, delayed, parallel_config
 
     out_abs = str(Path(out).resolve())    # workers may have another working directory
-    Path(out_abs).mkdir(parents=True, exist_ok=True)
     rows: dict[str, dict] = {}
 
     def collect(gen):
@@ -686,6 +685,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
     if backend == "local":
         from joblib.externals.loky.process_executor import TerminatedWorkerError
 
+        Path(out_abs).mkdir(parents=True, exist_ok=True)
         attempt = 0
         while True:
             todo = [t for t in tasks if t.folder_name not in rows]
@@ -710,8 +710,11 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
                 raise BackendError("--backend dask needs --scheduler tcp://HOST:PORT")
             client = connect_dask(scheduler, timeout)
         try:
+            Path(out_abs).mkdir(parents=True, exist_ok=True)
             _check_shared_folder(client, out_abs)
-            with parallel_config(backend="dask", client=client, retries=retries, n_jobs=jobs or -1,
+            # every run at once: Dask balances them over the worker threads (joblib's Dask
+            # backend always uses all of them, whatever n_jobs says)
+            with parallel_config(backend="dask", client=client, retries=retries, n_jobs=-1,
                                  wait_for_workers_timeout=timeout):
                 collect(Parallel(return_as="generator_unordered", batch_size=1, pre_dispatch="all")(
                     delayed(run_task)(t, out_abs) for t in tasks))

@@ -213,6 +213,7 @@ def test_dask_backend_without_the_extra(monkeypatch, tmp_path, capsys):
     (["--backend", "dask"], "--backend dask needs --scheduler"),
     (["--backend", "dask", "--scheduler", "foo:bar"], "--scheduler: expected an address"),
     (["--scheduler", "tcp://127.0.0.1:8786"], "--scheduler is only used with --backend dask"),
+    (["--backend", "dask", "--scheduler", "tcp://127.0.0.1:8786", "--jobs", "2"], "--jobs is for --backend local"),
     (["--seeds", "0"], "--seeds: expected a positive integer"),
     (["--seed-list", "1,x"], "--seed-list: expected integers"),
 ])

@@ -21,7 +21,7 @@ def register(sub):
                         "(default: a batch file's seeds, else 1)")
     p.add_argument("--seed-list", default=None, metavar="S1,S2,...", help="explicit seeds (overrides --seeds)")
     p.add_argument("--jobs", type=int, default=None, metavar="J",
-                   help="parallel workers (local default 2; dask default: every worker thread)")
+                   help="local worker processes (default 2); with --backend dask the cluster's worker threads decide")
     p.add_argument("--out", default="runs", metavar="DIR",
                    help="parent folder of the run folders (default runs; with dask, a path every worker sees)")
     p.add_argument("--pareto", action="store_true", default=None, help="also run the NSGA-II/III fronts in each run")
@@ -53,6 +53,9 @@ def run(args) -> int:
         raise UsageError("--backend dask needs --scheduler tcp://HOST:PORT (the address of a running Dask scheduler)")
     if args.scheduler and not _ADDRESS.match(args.scheduler):
         raise UsageError(f"--scheduler: expected an address such as tcp://HOST:PORT, got {args.scheduler!r}")
+    if args.backend == "dask" and args.jobs is not None:
+        raise UsageError("--jobs is for --backend local; with dask every worker thread of the cluster takes runs "
+                         "(start fewer workers or threads to run fewer at once)")
     if args.backend == "local" and args.scheduler:
         raise UsageError("--scheduler is only used with --backend dask")
     seeds = None
