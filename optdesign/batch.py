@@ -564,9 +564,18 @@ def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
         return None
     rows = [r for r in rows if r.get("status") == "complete" and r.get("objective") is not None]
     qs = [q for q in _quantities(rows) if not q.startswith("opt_") and q != "wall_time_s"]
-    fig, axes = plt.subplots(1, len(qs), figsize=(3.2 * len(qs) + 1, 3.6), squeeze=False)
-    labels = [f"{g['config']}" + (f"\n{g['sweep']}" if g["sweep"] else "") for g in groups]
-    for ax, q in zip(axes[0], qs):
+    ncol = 2 if len(qs) > 3 else len(qs)
+    nrow = math.ceil(len(qs) / ncol)
+    panel_w = max(4.0, 1.1 * len(groups) + 1.0)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_w * ncol, 3.4 * nrow + 0.6), squeeze=False)
+    # a sweep's runs are told apart by their swept values, other configs by name
+    labels = [g["sweep"].replace(", ", "\n") if g["sweep"] else str(g["config"]) for g in groups]
+    if len(set(labels)) < len(labels):
+        labels = [f"{g['config']}" + (f"\n{g['sweep']}" if g["sweep"] else "") for g in groups]
+    rotate = 30 if len(groups) > 6 else 0
+    for ax in axes.flat[len(qs):]:
+        ax.set_visible(False)
+    for ax, q in zip(axes.flat, qs):
         for i, g in enumerate(groups):
             vals = _finite(r.get(q) for r in rows if (r.get("config"), r.get("config_key")) == (g["config"], g["config_key"]))
             if len(vals) == 0:
@@ -577,7 +586,7 @@ def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
             ax.errorbar([i + 0.3], [s["mean"]], yerr=[[s["std"]], [s["std"]]], fmt="s", color="tab:red", ms=5, capsize=3)
         ax.set_title(q)
         ax.set_xticks(range(len(groups)))
-        ax.set_xticklabels(labels, rotation=30, ha="right", fontsize=7)
+        ax.set_xticklabels(labels, rotation=rotate, ha="right" if rotate else "center", fontsize=7)
         ax.set_xlim(-0.6, len(groups) - 0.4)
         ax.grid(alpha=0.3)
     fig.suptitle("spread across seeds (points: runs; square and bar: mean ± std)", fontsize=9)
