@@ -382,14 +382,15 @@ def _load_chunk(X, lo, hi, inb):
         inb[2 * CHUNK + j] = Xc[j, 2]
 
 
-@njit(**_NJIT)
-def _chunk(P, d, inb, n, want_s1, want_two, buf):
+@njit(inline="always", **_NJIT)
+def _chunk_body(P, d, inb, n, want_two, buf):
     """Local values of design d at the n points of inb (rows x, y, z of CHUNK,
     see _load_chunk) into the flat buffer buf (6 CHUNK): rows (reach code
     0/1/2 as a float, dynamic, sigma_min^2, sigma_min, cond_F, cond_2) of CHUNK
     each.  One write array at constant row offsets and no calls in the loop:
     LLVM vectorizes it.  The loop reads slices indexed from 0 (no wraparound
-    select on a negative index, which made LLVM load the inputs with gathers)."""
+    select on a negative index, which made LLVM load the inputs with gathers).
+    want_two must be a constant (see _chunk)."""
     off = P[d, 0]
     iL = 1.0 / P[d, 1]
     Lsq = P[d, 2]
@@ -410,13 +411,34 @@ def _chunk(P, d, inb, n, want_s1, want_two, buf):
     za = inb[2 * CHUNK:2 * CHUNK + n]
     for j in range(n):
         r, a, b, c, e, f = _point(xa[j], ya[j], za[j], off, iL, Lsq, c0, alpha, beta,
-                                  m00, m01, m02, m10, m11, m12, m20, m21, m22, want_s1, want_two)
+                                  m00, m01, m02, m10, m11, m12, m20, m21, m22, True, want_two)
         buf[j] = r
         buf[CHUNK + j] = a
         buf[2 * CHUNK + j] = b
         buf[3 * CHUNK + j] = c
         buf[4 * CHUNK + j] = e
         buf[5 * CHUNK + j] = f
+
+
+@njit(**_NJIT)
+def _chunk_fro(P, d, inb, n, buf):
+    _chunk_body(P, d, inb, n, False, buf)
+
+
+@njit(**_NJIT)
+def _chunk_two(P, d, inb, n, buf):
+    _chunk_body(P, d, inb, n, True, buf)
+
+
+@njit(inline="always", **_NJIT)
+def _chunk(P, d, inb, n, want_two, buf):
+    """_chunk_body with want_two a compile-time constant: a run-time flag was
+    if-converted, not unswitched, so every point paid for the third
+    eigenvalue (cond_2) whether it was wanted or not."""
+    if want_two:
+        _chunk_two(P, d, inb, n, buf)
+    else:
+        _chunk_fro(P, d, inb, n, buf)
 
 
 @njit(parallel=True, **_NJIT)
@@ -436,7 +458,7 @@ def p4s_local(P, X, want_two):
         buf = np.empty(6 * CHUNK)
         inb = np.empty(3 * CHUNK)
         _load_chunk(X, lo, hi, inb)
-        _chunk(P, d, inb, hi - lo, True, want_two, buf)
+        _chunk(P, d, inb, hi - lo, want_two, buf)
         for j in range(hi - lo):
             reach[d, lo + j] = np.int8(buf[j])
             for v in range(NVAL):
@@ -452,7 +474,7 @@ def _chunk_stats(P, d, X, lo, hi, want, want_two, reach, inb, buf, out, hard):
     code-2 points in hard[0])."""
     n = hi - lo
     _load_chunk(X, lo, hi, inb)
-    _chunk(P, d, inb, n, want[STIFF1], want_two, buf)
+    _chunk(P, d, inb, n, want_two, buf)
     k = 0
     nh = 0
     for j in range(n):
