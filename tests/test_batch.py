@@ -242,3 +242,19 @@ def test_dask_workers_must_see_the_run_folders(tmp_path):
     with pytest.raises(BackendError, match=r"tcp://10.0.0.2:1 does not see .* shared"):
         _check_shared_folder(Cluster(), str(tmp_path))
     assert list(tmp_path.iterdir()) == []          # the marker file is removed
+
+
+def test_unreadable_checkpoint_fails_that_run_with_a_clear_error(tmp_path):
+    (t,) = plan([str(SMALL)], seeds=[5])
+    out = tmp_path / "runs"
+    folder = RunFolder.create(out, t.folder_name, t.config_text, t.seed, t.key, exact=True)
+    with pytest.raises(Interrupted):
+        run_pipeline(parse_config(t.config_text), folder, t.seed, stop_after=2)
+    (ckpt,) = folder.path.glob("stages/*/checkpoint.pkl")
+    ckpt.write_bytes(b"")                        # as a crash before the data reached the disk may leave it
+    row = run_task(t, str(out))
+    assert row["status"] == "failed" and row["this_batch"] == "resumed"
+    assert "corrupted checkpoint" in row["error"] and str(ckpt.parent) in row["error"]
+    shutil.rmtree(ckpt.parent)                   # what the message says to do
+    row = run_task(t, str(out))
+    assert row["status"] == "complete"
