@@ -258,3 +258,11 @@ def test_unreadable_checkpoint_fails_that_run_with_a_clear_error(tmp_path):
     shutil.rmtree(ckpt.parent)                   # what the message says to do
     row = run_task(t, str(out))
     assert row["status"] == "complete"
+
+
+def test_validate_config_accepts_batch_files(capsys):
+    from optdesign.cli import main
+
+    root = Path(__file__).resolve().parents[1]
+    assert main(["validate-config", str(root / "configs" / "batch_example.yaml")]) == 0
+    assert "batch file" in capsys.readouterr().out

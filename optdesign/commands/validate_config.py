@@ -14,7 +14,14 @@ def run(args) -> int:
     from ._common import open_config
     from ..evaluate import workspace_of
 
+    from ..batch import is_batch_file, load_batch_file
+
     for path in args.config:
+        if is_batch_file(path):
+            bf = load_batch_file(path)
+            print(f"{path}: ok (batch file; {len(bf.combinations)} configs"
+                  + (f" x {len(bf.seeds)} seeds" if bf.seeds else "") + ")")
+            continue
         cfg = open_config(path)
         ws = workspace_of(cfg)
         free = ", ".join(v.name for v in cfg.free_variables) or "none"
