@@ -2,7 +2,6 @@
 figures 15-26), as CSV data and contour plots."""
 from __future__ import annotations
 
-import csv
 import os
 from pathlib import Path
 

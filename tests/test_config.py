@@ -8,7 +8,7 @@ import math
 import subprocess
 import sys
 
-import numpy as np
+
 import pytest
 import yaml
 

@@ -12,11 +12,7 @@ real processes.  Every run must return 2, print exactly one stderr line
 """
 from __future__ import annotations
 
-import contextlib
 import copy
-import io
-import math
-import os
 import subprocess
 import sys
 import tempfile
@@ -24,9 +20,9 @@ from pathlib import Path
 
 import pytest
 import yaml
+from cli_helpers import run_cli_in
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from optdesign.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
@@ -176,16 +172,7 @@ def _dump(data) -> str:
     return yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
 
 
-def _run_in(tmp: Path, argv: list[str]) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    old = os.getcwd()
-    os.chdir(tmp)
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            rc = main(argv)
-    finally:
-        os.chdir(old)
-    return rc, out.getvalue(), err.getvalue()
+_run_in = run_cli_in
 
 
 def _check_failure(rc, err, file_name, expect, what, tmp: Path):

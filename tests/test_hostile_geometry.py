@@ -18,10 +18,7 @@ rods), and check with every warning turned into an error that
 """
 from __future__ import annotations
 
-import contextlib
 import copy
-import io
-import os
 import warnings
 from pathlib import Path
 
@@ -204,17 +201,9 @@ def test_problem_flags_designs_at_the_corner_of_the_bounds():
 
 # ----------------------------------------------------------------------------- commands
 def _run(tmp: Path, argv):
-    from optdesign.cli import main
+    from cli_helpers import run_cli_in
 
-    out, err = io.StringIO(), io.StringIO()
-    old = os.getcwd()
-    os.chdir(tmp)
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            rc = main(argv)
-    finally:
-        os.chdir(old)
-    return rc, out.getvalue(), err.getvalue()
+    return run_cli_in(tmp, argv)
 
 
 def test_commands_at_the_edge_of_reachability(tmp_path):

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from optdesign.mechanisms import get
-from optdesign.mechanisms.p4s import E, T as T_DIR, Z
+from optdesign.mechanisms.p4s import E, T as T_DIR
 
 P4S = get("p4s")
 

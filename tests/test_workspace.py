@@ -10,7 +10,6 @@ import pytest
 
 from optdesign.config import WorkspaceSpec
 from optdesign.evaluate import evaluate
-from optdesign.mechanisms import get
 from optdesign.workspace import sample
 
 NAMES = ("x", "y", "z")

@@ -37,7 +37,7 @@ from ..runs import RunFolder
 from .objectives import EXTRA_OBJECTIVES
 from .operators import (AdaptiveGaussianMutation, AdaptiveMutationCallback, ArithmeticCrossover,
                         ElitistGenerationalSurvival, RouletteSelection)
-from .problem import DesignProblem, Term, extra_term, index_term, weighted_sum, weighted_sum_term
+from .problem import DesignProblem, extra_term, index_term, weighted_sum, weighted_sum_term
 
 __all__ = ["Interrupted", "Progress", "run_pipeline", "stage_plan", "build_algorithm"]
 

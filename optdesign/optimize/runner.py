@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..config import Config, load_config, parse_config
+from ..config import Config, parse_config
 from ..runs import RunFolder, RunFolderError, run_key
 from .pipeline import PipelineResult, Progress, run_pipeline
 

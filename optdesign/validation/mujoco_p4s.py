@@ -113,7 +113,7 @@ def mjcf(mech: P4S, *, timestep: float = SIM_TIMESTEP, integrator: str = "RK4",
             f'    <body name="slider{i}" pos="{_vec(r_b * E[i])}">',
             f'      <joint name="slide{i}" type="slide" axis="{_vec(m)}"/>',
             f'      <inertial pos="0 0 0" mass="{ms:.17g}" diaginertia="1e-3 1e-3 1e-3"/>',
-            f'      <geom type="box" size="0.03 0.03 0.02" rgba="0.8 0.5 0.3 1"/>',
+            '      <geom type="box" size="0.03 0.03 0.02" rgba="0.8 0.5 0.3 1"/>',
         ]
         for s, tag in ((1.0, "a"), (-1.0, "b")):
             lines += [
