@@ -85,6 +85,11 @@ class _CheckpointPickler(pickle.Pickler):
     def reducer_override(self, obj):
         import types
 
+        if type(obj) is _individual_class():
+            packed = _pack_individual(obj)
+            if packed is not None:
+                return packed
+
         if isinstance(obj, types.FunctionType) and "<locals>" in obj.__qualname__ and obj.__closure__:
             for cell in obj.__closure__:
                 try:
@@ -98,6 +103,46 @@ class _CheckpointPickler(pickle.Pickler):
                     except (ImportError, AttributeError):
                         pass
         return NotImplemented
+
+
+def _individual_class():
+    from pymoo.core.individual import Individual
+
+    return Individual
+
+
+def _pack_individual(ind):
+    """A pymoo Individual as one float buffer plus its small dicts: pickling its
+    eleven small arrays one by one costs most of a checkpoint's time."""
+    import numpy as np
+
+    d = ind.__dict__
+    names, shapes, parts, rest = [], [], [], {}
+    for k, v in d.items():
+        if type(v) is np.ndarray and v.dtype == np.float64:
+            names.append(k)
+            shapes.append(v.shape)
+            parts.append(v.ravel())
+        else:
+            rest[k] = v
+    if not names:
+        return None
+    flat = np.concatenate(parts) if len(parts) > 1 else parts[0].copy()
+    return _unpack_individual, (tuple(names), tuple(shapes), flat.tobytes(), rest)
+
+
+def _unpack_individual(names, shapes, buf, rest):
+    import numpy as np
+
+    ind = _individual_class().__new__(_individual_class())
+    flat = np.frombuffer(buf, dtype=np.float64)
+    pos = 0
+    for k, shape in zip(names, shapes):
+        n = int(np.prod(shape)) if shape else 1
+        ind.__dict__[k] = flat[pos:pos + n].reshape(shape).copy()
+        pos += n
+    ind.__dict__.update(rest)
+    return ind
 
 
 def dumps(obj: Any) -> bytes:
