@@ -181,6 +181,14 @@ class P4SModel:
         self.passive = np.setdiff1d(np.arange(m.nv), self.slide_v)
 
     # ------------------------------------------------------------------ state
+
+    def _set_ball_rates(self, out, w, R):
+        """Write the rods' world angular rates w (3 branches, 3) into the ball
+        joints' slots of ``out`` (MuJoCo wants them in the rod's local frame)."""
+        for i in range(3):
+            for k in range(2):
+                a = self.ball_v[i, k]
+                out[a:a + 3] = R[i].T @ w[i]
     def kinematic_state(self, X, V, A=None):
         """qpos, qvel (and qacc if A is given) from our kinematics at one pose.
 
@@ -218,11 +226,7 @@ class P4SModel:
         qvel = np.zeros(m.nv)
         qvel[self.plat_v:self.plat_v + 3] = V[0]
         qvel[self.slide_v] = qd
-        for i in range(3):
-            w = np.cross(n[i], ndot[i])
-            for k in range(2):
-                a = self.ball_v[i, k]
-                qvel[a:a + 3] = R[i].T @ w
+        self._set_ball_rates(qvel, np.cross(n, ndot), R)
         if A is None:
             return qpos, qvel
         A = np.asarray(A, float).reshape(1, 3)
@@ -231,11 +235,7 @@ class P4SModel:
         qacc = np.zeros(m.nv)
         qacc[self.plat_v:self.plat_v + 3] = A[0]
         qacc[self.slide_v] = qdd
-        for i in range(3):
-            wd = np.cross(n[i], nddot[i])
-            for k in range(2):
-                a = self.ball_v[i, k]
-                qacc[a:a + 3] = R[i].T @ wd
+        self._set_ball_rates(qacc, np.cross(n, nddot), R)
         return qpos, qvel, qacc
 
     def loop_jacobian(self) -> np.ndarray:
