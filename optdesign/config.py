@@ -222,6 +222,7 @@ class OptimizerSpec:
     singularity_threshold: float = 1e3
     stroke_limits: tuple[float, float] | None = None
     min_transmission: float = 0.0
+    checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
 
 
 @dataclass
@@ -274,7 +275,8 @@ _WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "se
 _SAMPLING = {"grid", "sobol", "halton", "lhs", "random"}
 _OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
              "mutation_probability", "seed", "weights", "normalization", "pareto",
-             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission"}
+             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission",
+             "checkpoint_interval"}
 
 
 def load_config(path: str | os.PathLike) -> Config:
@@ -594,4 +596,6 @@ def _optimizer(r: _Reader, opt: Any, dvs: dict, indices: dict) -> OptimizerSpec:
         if x >= 1:
             r.fail(f"{path}.min_transmission", f"expected a value in [0, 1), got {x:g}")
         kw["min_transmission"] = x
+    if "checkpoint_interval" in opt:
+        kw["checkpoint_interval"] = r.number(opt["checkpoint_interval"], f"{path}.checkpoint_interval", nonneg=True)
     return OptimizerSpec(**kw)

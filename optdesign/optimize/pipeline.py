@@ -10,9 +10,11 @@
    objective the config names); the weighted-sum optimum and the named designs
    are placed against it.
 
-Every stage checkpoints the pymoo algorithm (random state included) after each
-generation, so an interrupted run resumes where it stopped and ends with the
-same result as an uninterrupted one.
+Every stage checkpoints the pymoo algorithm (random state included) at a
+generation boundary once ``optimizer.checkpoint_interval`` seconds (default 1)
+have passed since its last checkpoint, and always when a stop is requested, so
+an interrupted run resumes where it stopped (a SIGKILL loses at most that
+interval of work) and ends with the same result as an uninterrupted one.
 """
 from __future__ import annotations
 
@@ -149,6 +151,8 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
         history = []
     progress.start(stage.name, generations, len(history))
     single = problem.n_obj == 1
+    interval = problem.config.optimizer.checkpoint_interval
+    last_save = time.perf_counter()
     while algorithm.has_next():
         algorithm.next()
         pop = algorithm.pop
@@ -171,22 +175,26 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
             for j, t in enumerate(problem.terms):
                 rec[f"best_{t.label()}"] = float(np.min(F[feas, j])) if feas.any() else float("nan")
         history.append(rec)
-        # the offspring of the finished generation are already merged into the
-        # population and never read again: leave them out of the checkpoint (half its size)
-        off, algorithm.off = algorithm.off, None
-        try:
-            folder.save_checkpoint(stage.name, {"algorithm": algorithm, "history": history})
-        finally:
-            algorithm.off = off
-        progress.update(rec["generation"], rec.get("best_objective"))
-        if budget.get("stop") is not None and budget["stop"].signum is not None and algorithm.has_next():
-            progress.finish()
-            budget["stop"].check()
+        stopping = budget.get("stop") is not None and budget["stop"].signum is not None and algorithm.has_next()
         if budget.get("left") is not None:
             budget["left"] -= 1
-            if budget["left"] <= 0:
-                progress.finish()
-                raise Interrupted(signal.SIGTERM)
+            stopping = stopping or budget["left"] <= 0
+        now = time.perf_counter()
+        if stopping or now - last_save >= interval:
+            # the offspring of the finished generation are already merged into the
+            # population and never read again: leave them out of the checkpoint (half its size)
+            off, algorithm.off = algorithm.off, None
+            try:
+                folder.save_checkpoint(stage.name, {"algorithm": algorithm, "history": history})
+            finally:
+                algorithm.off = off
+            last_save = time.perf_counter()
+        progress.update(rec["generation"], rec.get("best_objective"))
+        if stopping:
+            progress.finish()
+            if budget.get("stop") is not None:
+                budget["stop"].check()
+            raise Interrupted(signal.SIGTERM)
     progress.finish()
     return _stage_summary(folder, stage, algorithm, problem, history)
 
