@@ -271,8 +271,15 @@ class RunFolder:
         except (json.JSONDecodeError, UnicodeDecodeError):
             raise RunFolderError(f"{p}: corrupted (not valid JSON)") from None
 
-    def write_stage_result(self, stage: str, result: dict) -> None:
+    def write_stage_result(self, stage: str, result: dict, manifest: bool = True) -> None:
+        """The stage's result.json; with ``manifest`` also lists the stage as done
+        in the manifest (a stage worker process leaves that to the main process,
+        the manifest's only writer)."""
         atomic_write_json(self.stage_dir(stage) / "result.json", result)
+        if manifest:
+            self.mark_stage_done(stage)
+
+    def mark_stage_done(self, stage: str) -> None:
         m = self.read_manifest()
         if stage not in m["stages_done"]:
             m["stages_done"].append(stage)

@@ -100,7 +100,8 @@ def test_dask_batch_survives_a_killed_worker(cluster, tmp_path):
     address, procs = cluster
     cfg = tmp_path / "slow.yaml"
     # a little longer than the other tests' runs, so that a worker is caught mid-run
-    cfg.write_text((DATA / "batch_small.yaml").read_text().replace("generations: 5", "generations: 30"))
+    # (checkpoint after every generation, so that it has one when it is caught)
+    cfg.write_text((DATA / "batch_small.yaml").read_text().replace("generations: 5", "generations: 30, checkpoint_interval: 0"))
     out = tmp_path / "runs"
     cmd = [sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--out", str(out),
            "--backend", "dask", "--scheduler", address, "--timeout", "30"]

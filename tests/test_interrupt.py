@@ -110,7 +110,9 @@ def _checkpoint_writes(out: Path, seen: dict) -> int:
 
 
 def _start(tiny: Path, out: Path, *extra: str) -> subprocess.Popen:
-    return subprocess.Popen(CLI + ["run", str(tiny), "--seed", str(SEED), "--out", str(out), "--quiet", *extra],
+    # --jobs 2: the stages run in this process and a worker process, so every
+    # kill also hits a run whose worker must stop (or notice it is orphaned)
+    return subprocess.Popen(CLI + ["run", str(tiny), "--seed", str(SEED), "--out", str(out), "--quiet", "--jobs", "2", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

@@ -111,6 +111,19 @@ def test_resume_twice_interrupted(finished, tmp_path):
     assert _strip(res.results) == _strip(finished.results)
 
 
+def test_stages_in_two_processes_equal_one(finished, tmp_path):
+    """jobs=2 runs stages in a worker process too: same results, a complete
+    manifest (written by this process only), no stop file left behind."""
+    res = start_run(load_config(SMALL), seed=7, out=tmp_path, jobs=2)
+    assert _strip(res.results) == _strip(finished.results)
+    m = json.loads((res.folder.path / "manifest.json").read_text())
+    assert m["status"] == "complete"
+    assert sorted(m["stages_done"]) == sorted(p.name for p in (res.folder.path / "stages").iterdir())
+    assert not (res.folder.path / ".stop").exists()
+    for f in ("history.csv", "pareto_nsga2.csv", "pareto_nsga3.csv"):
+        assert (res.folder.path / f).read_text() == (finished.folder.path / f).read_text(), f
+
+
 def test_concurrent_runs_never_share_a_folder(tmp_path):
     made = {RunFolder.create(tmp_path, "same", "x: 1\n", 1, "k").path for _ in range(20)}
     assert len(made) == 20

@@ -11,6 +11,8 @@ def register(sub):
     p.add_argument("--out", default="runs", metavar="DIR", help="parent folder of run folders (default: runs)")
     p.add_argument("--no-pareto", action="store_true", help="skip the NSGA-II/III Pareto runs")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="processes running the GA stages at once (default: the CPUs available); results do not depend on it")
     p.set_defaults(func=run, resume=None, name=None)
 
 

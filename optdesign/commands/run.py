@@ -15,6 +15,8 @@ def register(sub):
     p.add_argument("--name", default=None, help="run folder name prefix (default: the config's name)")
     p.add_argument("--no-pareto", action="store_true", help="skip the NSGA-II/III Pareto runs")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="processes running the GA stages at once (default: the CPUs available); results do not depend on it")
     p.set_defaults(func=run)
 
 
@@ -30,12 +32,17 @@ def execute(args, after=None, cfg=None) -> int:
         raise UsageError("run: give a CONFIG or --resume RUN_DIR, not both")
     if args.seed is not None and not 0 <= args.seed < 2 ** 32:
         raise UsageError(f"--seed: expected an integer in [0, 2^32), got {args.seed}")
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs: expected a positive integer, got {args.jobs}")
+    from ..optimize.pipeline import default_jobs
+
+    jobs = default_jobs() if args.jobs is None else args.jobs
     try:
         if args.resume:
-            res = resume_run(args.resume, progress)
+            res = resume_run(args.resume, progress, jobs=jobs)
         else:
             cfg = cfg if cfg is not None else open_config(args.config)
-            res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto)
+            res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs)
     except RunFolderError as exc:
         raise UsageError(str(exc)) from None
     except Interrupted as exc:

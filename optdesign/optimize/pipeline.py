@@ -18,10 +18,12 @@ interval of work) and ends with the same result as an uninterrupted one.
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -41,7 +43,7 @@ from .operators import (AdaptiveGaussianMutation, AdaptiveMutationCallback, Arit
                         ElitistGenerationalSurvival, RouletteSelection)
 from .problem import DesignProblem, extra_term, index_term, weighted_sum, weighted_sum_term
 
-__all__ = ["Interrupted", "Progress", "run_pipeline", "stage_plan", "build_algorithm"]
+__all__ = ["Interrupted", "Progress", "run_pipeline", "stage_plan", "build_algorithm", "default_jobs"]
 
 
 class Interrupted(KeyboardInterrupt):
@@ -76,6 +78,12 @@ class Progress:
         el = time.perf_counter() - self._t0
         self.stream.write(f"\r{self.label:<24} [{'#' * k}{'.' * (width - k)}] {gen}/{self.total}{best_txt} {el:5.1f}s ")
         self.stream.flush()
+
+    def note(self, text: str):
+        """A line of its own (e.g. a stage a worker process finished)."""
+        if self.enabled:
+            self.stream.write(f"{text}\n")
+            self.stream.flush()
 
     def finish(self):
         if self.enabled:
@@ -175,7 +183,7 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
             for j, t in enumerate(problem.terms):
                 rec[f"best_{t.label()}"] = float(np.min(F[feas, j])) if feas.any() else float("nan")
         history.append(rec)
-        stopping = budget.get("stop") is not None and budget["stop"].signum is not None and algorithm.has_next()
+        stopping = budget.get("stop") is not None and algorithm.has_next() and budget["stop"].requested()
         if budget.get("left") is not None:
             budget["left"] -= 1
             stopping = stopping or budget["left"] <= 0
@@ -196,7 +204,7 @@ def _run_stage(folder: RunFolder, stage: Stage, problem: DesignProblem, factory:
                 budget["stop"].check()
             raise Interrupted(signal.SIGTERM)
     progress.finish()
-    return _stage_summary(folder, stage, algorithm, problem, history)
+    return _stage_summary(folder, stage, algorithm, problem, history, manifest=budget.get("manifest", True))
 
 
 def _rows_csv(rows: list[dict]) -> str:
@@ -239,7 +247,8 @@ def _population_rows(problem: DesignProblem, pop) -> list[dict]:
     return rows
 
 
-def _stage_summary(folder: RunFolder, stage: Stage, algorithm, problem: DesignProblem, history: list) -> dict:
+def _stage_summary(folder: RunFolder, stage: Stage, algorithm, problem: DesignProblem, history: list,
+                   manifest: bool = True) -> dict:
     pop = algorithm.pop
     d = folder.stage_dir(stage.name)
     from ..io import atomic_write_text
@@ -266,7 +275,7 @@ def _stage_summary(folder: RunFolder, stage: Stage, algorithm, problem: DesignPr
         rows = _population_rows(problem, opt)
         atomic_write_text(folder.path / f"{stage.name}.csv", _rows_csv(rows))
         res.update({"front_size": len(opt), "front": rows, "terms": [t.label() for t in problem.terms]})
-    folder.write_stage_result(stage.name, res)
+    folder.write_stage_result(stage.name, res, manifest=manifest)
     return res
 
 
@@ -282,11 +291,17 @@ class _StopRequest:
     """SIGINT/SIGTERM during a run: the first signal asks the GA to stop after the
     generation in progress (its checkpoint is then on disk); a second one stops
     at once.  Stopping at a generation boundary never interrupts a compiled
-    kernel or a file write half-way."""
+    kernel or a file write half-way.
 
-    def __init__(self):
+    In a stage worker process (``jobs > 1``) a stop is also requested by the
+    main process through ``stop_file`` (it holds the signal number), and when
+    the main process has gone (``parent``: its pid)."""
+
+    def __init__(self, stop_file: Path | None = None, parent: int | None = None):
         self.signum: int | None = None
         self.previous: dict[int, object] = {}
+        self.stop_file = stop_file
+        self.parent = parent
 
     def handler(self, signum, frame):
         if self.signum is not None:
@@ -307,17 +322,124 @@ class _StopRequest:
             except (ValueError, TypeError):
                 pass
 
+    def requested(self) -> bool:
+        if self.signum is None and self.stop_file is not None:
+            try:
+                self.signum = int(self.stop_file.read_text() or signal.SIGTERM)
+            except (FileNotFoundError, ValueError):
+                pass
+        if self.signum is None and self.parent is not None and os.getppid() != self.parent:
+            self.signum = signal.SIGTERM
+        return self.signum is not None
+
     def check(self) -> None:
-        if self.signum is not None:
+        if self.requested():
             raise Interrupted(self.signum)
 
 
+def _stage_terms(cfg: Config, st: Stage, lo: dict, hi: dict):
+    """(objective terms, generations, algorithm factory) of a stage."""
+    if st.kind == "single":
+        return [index_term(st.index, st.sense)], cfg.optimizer.generations, lambda: build_algorithm(cfg)
+    if st.kind == "weighted":
+        senses = {k: s.sense for k, s in cfg.indices.items()}
+        # the config's index order (not the order the single runs finished in):
+        # the sum is then added up in the same order whatever ``jobs`` is
+        lo, hi = _ordered(cfg, lo), _ordered(cfg, hi)
+        w = {k: cfg.optimizer.weights[k] for k in lo}
+        term = weighted_sum_term(lo, hi, w, senses, literal=st.literal)
+        return [term], cfg.optimizer.generations, lambda: build_algorithm(cfg)
+    terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
+    terms += [extra_term(e) for e in cfg.optimizer.extra_objectives]
+    return terms, cfg.optimizer.pareto_generations, lambda a=st.algorithm, n=len(terms): build_algorithm(cfg, n, a)
+
+
+def _ordered(cfg: Config, d: dict) -> dict:
+    return {k: d[k] for k in cfg.indices if k in d}
+
+
+def _execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, hi: dict, seed: int, ws,
+                   progress: Progress, budget: dict) -> dict:
+    terms, gens, factory = _stage_terms(cfg, st, lo, hi)
+    return _run_stage(folder, st, DesignProblem(cfg, terms, ws), factory, gens, _stage_seed(seed, i), progress, budget)
+
+
+_busy = False
+
+
+def _worker_init() -> None:
+    # a Ctrl-C on the terminal reaches every process of the group: an idle
+    # worker ignores it, a busy one stops at its generation boundary (its
+    # task installs a _StopRequest)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _set_kernel_threads(1)
+    import threading
+
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _watch_parent(parent: int, poll: float = 0.2, grace: float = 10.0) -> None:
+    """End this worker when the main process is gone (e.g. SIGKILLed): at once
+    when idle; a busy one stops at its next generation boundary by itself
+    (its _StopRequest sees the new parent) and is ended after ``grace`` s if not."""
+    while os.getppid() == parent:
+        time.sleep(poll)
+    t = time.monotonic()
+    while _busy and time.monotonic() - t < grace:
+        time.sleep(poll)
+    os._exit(1)
+
+
+def _set_kernel_threads(n: int | None) -> int | None:
+    """Set the compiled kernels' thread count (None: numba's default); returns the old one."""
+    try:
+        import numba
+    except Exception:  # noqa: BLE001 - no numba: the numpy path, nothing to set
+        return None
+    old = numba.get_num_threads()
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS if n is None else max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    return old
+
+
+def _stage_task(cfg: Config, path: str, st: Stage, i: int, lo: dict, hi: dict, seed: int, ws, parent: int) -> dict:
+    """One stage in a worker process; the main process records it in the manifest."""
+    global _busy
+    folder = RunFolder(path)
+    stop = _StopRequest(folder.path / STOP_FILE, parent)
+    stop.install()
+    _busy = True
+    try:
+        return _execute_stage(cfg, folder, st, i, lo, hi, seed, ws, Progress(False),
+                              {"stop": stop, "left": None, "manifest": False})
+    finally:
+        _busy = False
+        stop.restore()
+
+
+#: written into the run folder by the main process to stop its stage workers
+STOP_FILE = ".stop"
+
+
+def default_jobs() -> int:
+    """Processes for a run's stages: the CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None,
-                 pareto: bool = True, stop_after: int | None = None) -> PipelineResult:
+                 pareto: bool = True, stop_after: int | None = None, jobs: int = 1) -> PipelineResult:
     """Run (or resume) every stage of the config's optimization in ``folder``.
 
+    ``jobs``: processes running stages at once.  The single-index GA runs and
+    the Pareto runs are independent; the weighted sums wait for the single-index
+    runs.  With ``jobs > 1`` this process runs stages itself and hands others
+    to ``jobs - 1`` worker processes; every stage has its own seed, so the
+    results do not depend on ``jobs``.
+
     ``stop_after`` (tests only) interrupts the run after that many generations,
-    as a signal would.
+    as a signal would (it runs the stages one by one).
     """
     progress = progress or Progress(False)
     t0 = time.perf_counter()
@@ -329,36 +451,80 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     ws = workspace_of(cfg)
     stages: dict[str, dict] = {}
     budget = {"left": stop_after, "stop": stop}
-
-    def run(stage: Stage, i: int, terms, gens: int, factory):
-        prob = DesignProblem(cfg, terms, ws)
-        res = _run_stage(folder, stage, prob, factory, gens, _stage_seed(seed, i), progress, budget)
-        stages[stage.name] = res
-        return res
-
+    jobs = 1 if stop_after is not None else max(1, int(jobs))
+    pool = None
+    threads = None
     try:
         plan = stage_plan(cfg)
         if not pareto:
             plan = [s for s in plan if s.kind != "pareto"]
         lo, hi = {}, {}
-        senses = {k: s.sense for k, s in cfg.indices.items()}
-        for i, st in enumerate(plan):
+        singles = [st.name for st in plan if st.kind == "single"]
+
+        def record(st: Stage, res: dict) -> None:
+            stages[st.name] = res
             if st.kind == "single":
-                res = run(st, i, [index_term(st.index, st.sense)], cfg.optimizer.generations,
-                          lambda: build_algorithm(cfg))
                 if not res["feasible"]:
                     raise RuntimeError(f"no feasible design found for {st.index} ({st.sense}); widen the bounds or relax the constraints")
                 (lo if st.sense == "min" else hi)[st.index] = res["value"]
-            elif st.kind == "weighted":
-                w = {k: cfg.optimizer.weights[k] for k in lo}
-                term = weighted_sum_term(lo, hi, w, senses, literal=st.literal)
-                run(st, i, [term], cfg.optimizer.generations, lambda: build_algorithm(cfg))
+
+        # finished stages (a resumed run) are taken as they are
+        todo = []
+        for i, st in enumerate(plan):
+            done = folder.stage_result(st.name)
+            if done is not None:
+                record(st, done)
             else:
-                terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
-                terms += [extra_term(e) for e in cfg.optimizer.extra_objectives]
-                run(st, i, terms, cfg.optimizer.pareto_generations,
-                    lambda a=st.algorithm, n=len(terms): build_algorithm(cfg, n, a))
-        results = _final_results(cfg, folder, seed, stages, lo, hi, ws)
+                todo.append((i, st))
+        todo.sort(key=lambda t: {"single": 0, "weighted": 1, "pareto": 2}[t[1].kind])
+
+        def take():
+            """The next stage that can start (single runs first, then the weighted sums once the
+            single runs are done, then the Pareto runs), or None."""
+            for n, (i, st) in enumerate(todo):
+                if st.kind != "weighted" or all(s in stages for s in singles):
+                    return todo.pop(n)
+            return None
+
+        workers = min(jobs - 1, len(todo) - 1)
+        running: dict = {}
+        if workers > 0:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            threads = _set_kernel_threads(1)
+            pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_worker_init)
+            for _ in range(workers):  # start the workers (their imports) now
+                pool.submit(_worker_ready)
+            # load (on a fresh installation: compile and cache) the kernels here
+            # first, so that the workers load them from the cache instead of
+            # compiling them too
+            _warm_kernels(cfg, ws)
+        report_warm = False
+        while todo or running:
+            while pool is not None and len(running) < workers:
+                nxt = take()
+                if nxt is None:
+                    break
+                i, st = nxt
+                running[pool.submit(_stage_task, cfg, str(folder.path), st, i, dict(lo), dict(hi), seed, ws,
+                                    os.getpid())] = st
+            nxt = take()
+            if nxt is not None:
+                i, st = nxt
+                record(st, _execute_stage(cfg, folder, st, i, lo, hi, seed, ws, progress, budget))
+            elif running:
+                if not report_warm:  # idle until a worker finishes: load the plotting library meanwhile
+                    report_warm = _warm_report()
+                _wait_any(running, stop)
+            for fut in [f for f in running if f.done()]:
+                st = running.pop(fut)
+                record(st, fut.result())
+                folder.mark_stage_done(st.name)
+                progress.note(f"{st.name} done (worker process)")
+            stop.check()
+        stages = {st.name: stages[st.name] for st in plan}
+        results = _final_results(cfg, folder, seed, stages, _ordered(cfg, lo), _ordered(cfg, hi), ws)
         wall = wall_before + time.perf_counter() - t0
         m = folder.read_manifest()
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
@@ -372,17 +538,74 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         write_report(cfg, folder, results, stages)
         return PipelineResult(folder, results, stages)
     except KeyboardInterrupt as exc:
-        folder.update_manifest(status="interrupted", wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         if not isinstance(exc, Interrupted):
             exc = Interrupted(signal.SIGINT)
+        _stop_workers(folder, pool, exc.signum, wait=stop.signum is not None and exc.signum == stop.signum)
+        folder.update_manifest(status="interrupted", wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         exc.folder = folder.path
         raise exc from None
     except Exception as exc:
+        _stop_workers(folder, pool, signal.SIGTERM, wait=True)
         folder.update_manifest(status="failed", error=f"{type(exc).__name__}: {exc}",
                                wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         raise
     finally:
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+        if threads is not None:
+            _set_kernel_threads(threads)
+        try:
+            (folder.path / STOP_FILE).unlink()
+        except FileNotFoundError:
+            pass
         stop.restore()
+
+
+def _worker_ready() -> bool:
+    return True
+
+
+def _warm_kernels(cfg: Config, ws) -> None:
+    from ..evaluate import evaluate
+
+    with np.errstate(all="ignore"):
+        evaluate(cfg, [cfg.initial_design()], ws)
+
+
+def _warm_report() -> bool:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot  # noqa: F401
+    except Exception:  # noqa: BLE001 - the report says why plots are missing
+        pass
+    return True
+
+
+def _wait_any(running: dict, stop: _StopRequest) -> None:
+    """Wait until a worker's stage ends or a stop is requested (checked every 50 ms)."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    while not stop.requested():
+        done, _ = wait(list(running), timeout=0.05, return_when=FIRST_COMPLETED)
+        if done:
+            return
+
+
+def _stop_workers(folder: RunFolder, pool, signum: int, wait: bool) -> None:
+    """Ask the stage workers to stop at their next generation boundary (after
+    their checkpoint) and, unless the user insisted (a second signal), wait for them."""
+    if pool is None:
+        return
+    from ..io import atomic_write_text
+
+    atomic_write_text(folder.path / STOP_FILE, str(int(signum)))
+    if wait:
+        try:
+            pool.shutdown(wait=True, cancel_futures=True)
+        except KeyboardInterrupt:
+            pass
 
 
 def _now_iso() -> str:

@@ -23,17 +23,19 @@ def config_text(cfg: Config) -> str:
 
 def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "runs", name: str | None = None,
               progress: Progress | None = None, pareto: bool = True, exact_name: bool = False,
-              stop_after: int | None = None) -> PipelineResult:
-    """Run a config's optimization in a new run folder under ``out``."""
+              stop_after: int | None = None, jobs: int = 1) -> PipelineResult:
+    """Run a config's optimization in a new run folder under ``out`` (``jobs``:
+    processes running its stages at once, see :func:`run_pipeline`)."""
     seed = cfg.optimizer.seed if seed is None else int(seed)
     text = config_text(cfg)
     key = run_key(text, seed, {"pareto": pareto})
     folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name)
     folder.update_manifest(pareto=pareto, config_source=cfg.source, config_name=cfg.name)
-    return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after)
+    return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs)
 
 
-def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_after: int | None = None) -> PipelineResult:
+def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_after: int | None = None,
+               jobs: int = 1) -> PipelineResult:
     """Finish an interrupted run in its own folder (completed stages are kept)."""
     folder = RunFolder(path)
     m = folder.read_manifest()
@@ -46,7 +48,8 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
         return PipelineResult(folder, json.loads((folder.path / "results.json").read_text()))
     if "seed" not in m or not isinstance(m["seed"], int):
         raise RunFolderError(f"{folder.manifest_path}: corrupted (no integer 'seed')")
-    return run_pipeline(cfg, folder, m["seed"], progress, pareto=bool(m.get("pareto", True)), stop_after=stop_after)
+    return run_pipeline(cfg, folder, m["seed"], progress, pareto=bool(m.get("pareto", True)), stop_after=stop_after,
+                        jobs=jobs)
 
 
 def summary_line(res: PipelineResult) -> str:
