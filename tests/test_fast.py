@@ -300,7 +300,9 @@ def test_fallback_when_disabled_or_unavailable(monkeypatch):
     # numba missing: the import failed
     monkeypatch.setattr(fast, "_kernels", None)
     monkeypatch.setattr(fast, "_import_error", ImportError("no numba"))
-    assert not fast.available()
+    monkeypatch.setattr(fast, "_fk_mod", None)
+    monkeypatch.setattr(fast, "_fk_error", ImportError("no numba"))
+    assert not fast.available() and fast.fk_kernels() is None
     assert fast.try_evaluate(cfg, mech, X, names) is None
     ev = evaluate(cfg, [cfg.design("after")])
     assert 15.0 < ev.summary["dynamic"]["mean"][0] < 16.5
