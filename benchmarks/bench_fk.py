@@ -9,7 +9,9 @@ both on random designs and poses (the ranges of ``tests/test_fast.py``).
 
     python benchmarks/bench_fk.py [--rev 8ae7683] [--repeat 11] [--threads 1 2] [--sizes 100000 1000000]
 
-Prints poses per second and CPU/wall of the best run (2 = both cores busy).
+Prints poses per second of the best run and CPU/wall summed over all runs of
+that side (2 = both cores busy; per call, the CPU time of the second thread
+is not always accounted yet when the call returns).
 Run ``uptime`` alongside: on a shared machine the 2-thread figures depend on
 the other jobs.
 """
@@ -45,19 +47,6 @@ def old_fk_module(rev: str, tmp: str):
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
-
-
-def _best(fn, repeat):
-    bw, bc = math.inf, 0.0
-    for _ in range(repeat):
-        c = time.process_time()
-        t = time.perf_counter()
-        fn()
-        w = time.perf_counter() - t
-        c = time.process_time() - c
-        if w < bw:
-            bw, bc = w, c
-    return bw, bc
 
 
 def constants(mech) -> np.ndarray:
@@ -140,14 +129,20 @@ def main(argv=None):
             Q = np.ascontiguousarray(mech.inverse(X))
             ea = np.abs(run_old(F, Q) - X).max()
             eb = np.abs(run_new(F, Q) - X).max()
-            bo = bn = (math.inf, 0.0)
+            best = {"old": math.inf, "new": math.inf}
+            tot = {"old": [0.0, 0.0], "new": [0.0, 0.0]}
             for _ in range(args.repeat):      # alternate, so that both see the same load
-                w, c = _best(lambda: run_old(F, Q), 1)
-                bo = min(bo, (w, c))
-                w, c = _best(lambda: run_new(F, Q), 1)
-                bn = min(bn, (w, c))
-            (wo, co), (wn, cn) = bo, bn
-            print(f"| {nt} | {N:,} | {N / wo / 1e6:.1f} ({co / wo:.2f}) | {N / wn / 1e6:.1f} ({cn / wn:.2f}) "
+                for key, fn in (("old", run_old), ("new", run_new)):
+                    c = time.process_time()
+                    t = time.perf_counter()
+                    fn(F, Q)
+                    w = time.perf_counter() - t
+                    tot[key][0] += w
+                    tot[key][1] += time.process_time() - c
+                    best[key] = min(best[key], w)
+            wo, wn = best["old"], best["new"]
+            ro, rn = (tot[key][1] / tot[key][0] for key in ("old", "new"))
+            print(f"| {nt} | {N:,} | {N / wo / 1e6:.1f} ({ro:.2f}) | {N / wn / 1e6:.1f} ({rn:.2f}) "
                   f"| {wo / wn:.2f} | {ea:.1e}, {eb:.1e} |", flush=True)
     print(f"load after: {os.getloadavg()[0]:.2f}")
     return 0
