@@ -9,9 +9,9 @@ both on random designs and poses (the ranges of ``tests/test_fast.py``).
 
     python benchmarks/bench_fk.py [--rev 8ae7683] [--repeat 11] [--threads 1 2] [--sizes 100000 1000000]
 
-Prints poses per second of the best run and CPU/wall summed over all runs of
-that side (2 = both cores busy; per call, the CPU time of the second thread
-is not always accounted yet when the call returns).
+Prints poses per second of the best run and CPU/wall of that side over a
+sustained series of calls (0.5 s; 2 = both cores busy: per call, the CPU
+time of the second thread is accounted in lumps and is not reliable).
 Run ``uptime`` alongside: on a shared machine the 2-thread figures depend on
 the other jobs.
 """
@@ -130,19 +130,23 @@ def main(argv=None):
             ea = np.abs(run_old(F, Q) - X).max()
             eb = np.abs(run_new(F, Q) - X).max()
             best = {"old": math.inf, "new": math.inf}
-            tot = {"old": [0.0, 0.0], "new": [0.0, 0.0]}
             for _ in range(args.repeat):      # alternate, so that both see the same load
                 for key, fn in (("old", run_old), ("new", run_new)):
-                    c = time.process_time()
                     t = time.perf_counter()
                     fn(F, Q)
-                    w = time.perf_counter() - t
-                    tot[key][0] += w
-                    tot[key][1] += time.process_time() - c
-                    best[key] = min(best[key], w)
+                    best[key] = min(best[key], time.perf_counter() - t)
+            # CPU/wall over a sustained series (>= 0.5 s; per call, the CPU time
+            # of the other thread is accounted in lumps)
+            ratio = {}
+            for key, fn in (("old", run_old), ("new", run_new)):
+                c = time.process_time()
+                t0 = t = time.perf_counter()
+                while t - t0 < 0.5:
+                    fn(F, Q)
+                    t = time.perf_counter()
+                ratio[key] = (time.process_time() - c) / (t - t0)
             wo, wn = best["old"], best["new"]
-            ro, rn = (tot[key][1] / tot[key][0] for key in ("old", "new"))
-            print(f"| {nt} | {N:,} | {N / wo / 1e6:.1f} ({ro:.2f}) | {N / wn / 1e6:.1f} ({rn:.2f}) "
+            print(f"| {nt} | {N:,} | {N / wo / 1e6:.1f} ({ratio['old']:.2f}) | {N / wn / 1e6:.1f} ({ratio['new']:.2f}) "
                   f"| {wo / wn:.2f} | {ea:.1e}, {eb:.1e} |", flush=True)
     print(f"load after: {os.getloadavg()[0]:.2f}")
     return 0

@@ -34,8 +34,8 @@ from contextlib import contextmanager
 import numpy as np
 
 __all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "available", "kernels", "import_error",
-           "design_constants", "p4s_local", "p4s_summary", "fk_kernels", "forward_p4s", "try_evaluate", "SUPPORTED",
-           "VALUE_NAMES"]
+           "design_constants", "p4s_local", "p4s_summary", "fk_kernels", "forward_p4s", "try_evaluate",
+           "SUPPORTED", "VALUE_NAMES"]
 
 ENV_VAR = "OPTDESIGN_FAST"
 
