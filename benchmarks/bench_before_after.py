@@ -1,6 +1,7 @@
-"""The current kernels against an earlier version of ``_p4s_kernels.py`` in the
-same process (the old file is taken from git and compiled into a temporary
-module with its own numba cache), each called the way its wrapper called it:
+"""The current kernels against an earlier version of ``_p4s_kernels.py`` (and
+of ``_fk_kernels.py``, where that revision has it) in the same process (the
+old file is taken from git and compiled into a temporary module with its own
+numba cache), each called the way its wrapper called it:
 
 * local indices (dynamic, stiffness, Frobenius isotropy), bare kernel incl.
   the per-design reductions: 50 designs x 1000 points and 1 design x 10^6
@@ -33,14 +34,17 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def _old_kernels(rev: str, tmp: str):
-    src = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/_p4s_kernels.py"], check=True,
-                         capture_output=True, text=True).stdout
-    src = src.replace("from ..mechanisms.p4s import E as _E", "from optdesign.mechanisms.p4s import E as _E")
-    path = os.path.join(tmp, "old_p4s_kernels.py")
+def _old_kernels(rev: str, tmp: str, name: str = "_p4s_kernels"):
+    """Module ``optdesign/fast/<name>.py`` of revision rev, or None if it has none."""
+    res = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/{name}.py"], capture_output=True,
+                         text=True)
+    if res.returncode != 0:
+        return None
+    src = res.stdout.replace("from ..mechanisms.p4s import E as _E", "from optdesign.mechanisms.p4s import E as _E")
+    path = os.path.join(tmp, f"old{name}.py")
     with open(path, "w") as f:
         f.write(src)
-    spec = importlib.util.spec_from_file_location("old_p4s_kernels", path)
+    spec = importlib.util.spec_from_file_location(f"old{name}", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -75,6 +79,8 @@ def main(argv=None):
     tmp = tempfile.mkdtemp(prefix="optdesign_old_kernels_")
     os.environ.setdefault("NUMBA_CACHE_DIR", tmp)
     old = _old_kernels(args.rev, tmp)
+    # the forward kinematics moved to _fk_kernels.py (its own module) after 8ae7683
+    old_fk = _old_kernels(args.rev, tmp, "_fk_kernels") or old
     rng = np.random.default_rng(0)
     want = np.array([True, True, False, True, False])
     cases = []
@@ -101,8 +107,10 @@ def main(argv=None):
                   float(mech.L) ** 2, float(mech.L)])
 
     def fk_before():
+        if old_fk.p4s_forward.py_func.__code__.co_argcount == 3:   # (F, Q, out)
+            return old_fk.p4s_forward(F, Q, np.empty((N, 3)))
         T = np.ascontiguousarray(Q.T)
-        return old.p4s_forward(F, T[0], T[1], T[2])
+        return old_fk.p4s_forward(F, T[0], T[1], T[2])
 
     out = np.empty((N, 3))
     note = "max error %.1e -> %.1e m" % (np.abs(fk_before() - X).max(), np.abs(fast.forward_p4s(mech, Q) - X).max())

@@ -300,7 +300,9 @@ def test_fallback_when_disabled_or_unavailable(monkeypatch):
     # numba missing: the import failed
     monkeypatch.setattr(fast, "_kernels", None)
     monkeypatch.setattr(fast, "_import_error", ImportError("no numba"))
-    assert not fast.available()
+    monkeypatch.setattr(fast, "_fk_mod", None)
+    monkeypatch.setattr(fast, "_fk_error", ImportError("no numba"))
+    assert not fast.available() and fast.fk_kernels() is None
     assert fast.try_evaluate(cfg, mech, X, names) is None
     ev = evaluate(cfg, [cfg.design("after")])
     assert 15.0 < ev.summary["dynamic"]["mean"][0] < 16.5
@@ -335,6 +337,12 @@ def test_forward_kinematics_kernel():
     assert fast.forward_p4s(mech, Q, out=out) is out
     np.testing.assert_array_equal(out, P)
     np.testing.assert_array_equal(fast.forward_p4s(mech, np.asfortranarray(Q)), P)
+    # in place, and a pose's result does not depend on where it falls (vectorized
+    # loop, scalar remainder, the scalar loop taken when out aliases Q)
+    Q2 = Q.copy()
+    np.testing.assert_array_equal(fast.forward_p4s(mech, Q2, out=Q2), P)
+    np.testing.assert_array_equal(fast.forward_p4s(mech, Q[3:]), P[3:])
+    np.testing.assert_array_equal(np.concatenate([fast.forward_p4s(mech, Q[k:k + 1]) for k in range(20)]), P[:20])
     with pytest.raises(ValueError):
         fast.forward_p4s(mech, Q, out=np.empty((len(Q), 3), order="F"))
     # spheres that do not meet: NaN as the numpy path

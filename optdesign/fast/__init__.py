@@ -20,7 +20,9 @@ pass (see ``docs/performance.md``).
 Results equal the numpy path's to 1e-12 relative (typically 1e-14: closed-form
 eigenvalues against LAPACK; the kernel hands the points with cond(J) >= 1000 to
 the numpy path), the reachable mask bitwise, and do not depend on the number
-of threads.  ``forward_p4s`` is the compiled forward kinematics of one design.
+of threads.  ``forward_p4s`` is the compiled forward kinematics of one design
+(its kernels are a module of their own, :func:`fk_kernels`, with its own numba
+cache and the same fallback: :meth:`P4S.forward`).
 """
 from __future__ import annotations
 
@@ -32,8 +34,8 @@ from contextlib import contextmanager
 import numpy as np
 
 __all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "available", "kernels", "import_error",
-           "design_constants", "p4s_local", "p4s_summary", "forward_p4s", "try_evaluate", "SUPPORTED",
-           "VALUE_NAMES"]
+           "design_constants", "p4s_local", "p4s_summary", "fk_kernels", "forward_p4s", "try_evaluate",
+           "SUPPORTED", "VALUE_NAMES"]
 
 ENV_VAR = "OPTDESIGN_FAST"
 
@@ -47,6 +49,8 @@ SUPPORTED = {
 _override: bool | None = None
 _kernels = None
 _import_error: BaseException | None = None
+_fk_mod = None
+_fk_error: BaseException | None = None
 
 
 def enabled() -> bool:
@@ -74,21 +78,40 @@ def disabled():
         _override = old
 
 
+def _passive_workers() -> None:
+    # idle OpenMP workers must sleep, not spin: the optimizer alternates
+    # kernel calls with numpy (OpenBLAS) work, and on a 2-core machine
+    # spinning workers slow both down by two orders of magnitude
+    # (docs/performance.md).  Read by libgomp when numba first loads it.
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 def kernels():
     """The compiled kernel module, or None if numba is not usable here."""
     global _kernels, _import_error
     if _kernels is None and _import_error is None:
-        # idle OpenMP workers must sleep, not spin: the optimizer alternates
-        # kernel calls with numpy (OpenBLAS) work, and on a 2-core machine
-        # spinning workers slow both down by two orders of magnitude
-        # (docs/performance.md).  Read by libgomp when numba first loads it.
-        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+        _passive_workers()
         try:
             from . import _p4s_kernels as k
             _kernels = k
         except Exception as exc:  # numba missing or broken: numpy path
             _import_error = exc
     return _kernels
+
+
+def fk_kernels():
+    """The compiled forward-kinematics module (:mod:`._fk_kernels`), or None if
+    numba is not usable here (independent of :func:`kernels`: either module may
+    fail alone, e.g. at compile time)."""
+    global _fk_mod, _fk_error
+    if _fk_mod is None and _fk_error is None:
+        _passive_workers()
+        try:
+            from . import _fk_kernels as k
+            _fk_mod = k
+        except Exception as exc:  # numba missing or broken: P4S.forward
+            _fk_error = exc
+    return _fk_mod
 
 
 def available() -> bool:
@@ -330,21 +353,31 @@ def forward_p4s(mech, Q, out=None) -> np.ndarray:
     not meet; same solution (assembly mode above the sphere centres) as
     :meth:`P4S.forward`.  ``out``: an optional C-contiguous float (N, 3) array
     to write into (and return), e.g. reused over calls.  Falls back to
-    ``mech.forward`` if numba is unavailable, the design is not a single one,
-    or the fast path is disabled."""
+    ``mech.forward`` if numba is unavailable or the kernel fails to compile, the
+    design is not a single one, or the fast path is disabled."""
+    global _fk_mod, _fk_error
     Q = np.asarray(Q, dtype=float)
-    k = kernels() if enabled() else None
-    if k is None or mech.design_shape != () or Q.ndim != 2 or Q.shape[1] != 3:
-        P = mech.forward(Q)
-        if out is not None:
-            out[...] = P
-            return out
-        return P
-    c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
-    F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
-    Q = np.ascontiguousarray(Q)
-    if out is None:
-        out = np.empty(Q.shape)
-    elif out.shape != Q.shape or out.dtype != np.float64 or not out.flags.c_contiguous or not out.flags.writeable:
-        raise ValueError(f"out must be a writeable C-contiguous float64 array of shape {Q.shape}")
-    return k.p4s_forward(F, Q, out)
+    k = fk_kernels() if enabled() else None
+    if k is not None and mech.design_shape == () and Q.ndim == 2 and Q.shape[1] == 3:
+        c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
+        F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
+        Q = np.ascontiguousarray(Q)
+        if out is None:
+            out = np.empty(Q.shape)
+        elif (out.shape != Q.shape or out.dtype != np.float64 or not out.flags.c_contiguous
+              or not out.flags.writeable):
+            raise ValueError(f"out must be a writeable C-contiguous float64 array of shape {Q.shape}")
+        try:
+            return k.p4s_forward(F, Q, out)
+        except Exception as exc:  # a compile failure at first call: P4S.forward from now on
+            cause = exc.__cause__ or exc.__context__
+            if isinstance(cause, BaseException) and not isinstance(cause, Exception):
+                raise cause from None  # Ctrl-C or a signal inside the kernel
+            _fk_mod, _fk_error = None, exc
+            warnings.warn(f"optdesign.fast: compiled forward kinematics failed ({exc}); using P4S.forward",
+                          RuntimeWarning)
+    P = mech.forward(Q)
+    if out is not None:
+        out[...] = P
+        return out
+    return P
