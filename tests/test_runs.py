@@ -163,7 +163,7 @@ def test_sigterm_leaves_an_incomplete_folder_that_resumes(tmp_path, finished):
     proc = subprocess.Popen([sys.executable, "-m", "optdesign.cli", "run", str(SMALL), "--seed", "7",
                              "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while time.time() < deadline:
+    while time.time() < deadline and proc.poll() is None:
         if list(out.rglob("checkpoint.pkl")):
             break
         time.sleep(0.05)

@@ -201,8 +201,9 @@ def fk_rates(N: int, repeat: int) -> dict:
 def reproduce_time(min_points: int, pareto: bool = True) -> dict:
     """Wall time of ``optdesign reproduce`` (a fresh process, start-up included)
     on the paper's config with its workspace grid refined to at least
-    ``min_points`` points, run twice (the second run finds the compiled kernels
-    cached on disk)."""
+    ``min_points`` points: twice with the default ``--jobs`` (the second run
+    finds the compiled kernels cached on disk), then once with ``--jobs 1``
+    (the stages one after the other in one process) as the baseline."""
     import yaml
 
     from importlib.resources import files
@@ -221,11 +222,13 @@ def reproduce_time(min_points: int, pareto: bool = True) -> dict:
         cmd = [sys.executable, "-m", "optdesign.cli", "reproduce", cfg, "--out", os.path.join(tmp, "runs"), "--quiet"]
         if not pareto:
             cmd.append("--no-pareto")
-        for _ in range(2):
+        from ..optimize.pipeline import default_jobs
+
+        for jobs in (None, None, 1):
             t = time.perf_counter()
-            p = subprocess.run(cmd, capture_output=True, text=True)
+            p = subprocess.run(cmd + (["--jobs", str(jobs)] if jobs else []), capture_output=True, text=True)
             dt = time.perf_counter() - t
-            res["runs"].append({"seconds": dt, "exit_status": p.returncode})
+            res["runs"].append({"seconds": dt, "exit_status": p.returncode, "jobs": jobs or default_jobs()})
             if p.returncode != 0:
                 res["error"] = (p.stderr or p.stdout).strip().splitlines()[-1:] 
                 break
@@ -287,10 +290,12 @@ def run(args) -> int:
     print(table(["path", "poses", "poses/s", "vs numpy", "max error (m)"], rows))
     if "reproduce" in res:
         r = res["reproduce"]
-        runs = ", ".join(f"{x['seconds']:.2f} s" for x in r["runs"])
+        runs = ", ".join(f"{x['seconds']:.2f} s (--jobs {x['jobs']})" for x in r["runs"])
         print(f"\noptdesign reproduce ({r['workspace_points']} workspace points per design, Pareto runs included), "
-              f"wall time of two runs in fresh processes: {runs}; start-up (imports, kernel load): "
+              f"wall time in fresh processes: {runs}; start-up (imports, kernel load): "
               f"{r['startup_seconds']:.2f} s")
+        if len(r["runs"]) == 3 and all(x["exit_status"] == 0 for x in r["runs"]):
+            print(f"--jobs 1 / --jobs {r['runs'][1]['jobs']}: {r['runs'][2]['seconds'] / r['runs'][1]['seconds']:.2f}")
         if "error" in r:
             print(f"reproduce failed: {r['error']}")
     return 0
