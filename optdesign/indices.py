@@ -53,29 +53,24 @@ def singular_values(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def sigma_max(A: np.ndarray) -> np.ndarray:
     """Largest singular value, sqrt(lambda_max(A^T A)); inf where A is not finite."""
-    s, good = singular_values(A)
-    return np.where(good, s[..., 0], np.inf)
+    return sigma_max_of(*singular_values(A))
 
 
 def sigma_min(A: np.ndarray) -> np.ndarray:
     """Smallest singular value; 0 where A is not finite."""
-    s, good = singular_values(A)
-    return np.where(good, s[..., -1], 0.0)
+    return sigma_min_of(*singular_values(A))
 
 
-def _full_rank(s: np.ndarray, A: np.ndarray) -> np.ndarray:
+def _full_rank(s: np.ndarray, shape: tuple) -> np.ndarray:
     """Numerically full rank (numpy.linalg.matrix_rank's tolerance): a matrix
     whose smallest singular value is round-off of the largest counts as singular."""
-    tol = s[..., 0] * max(A.shape[-2:]) * np.finfo(float).eps
+    tol = s[..., 0] * max(shape[-2:]) * np.finfo(float).eps
     return s[..., -1] > tol
 
 
 def cond_2(A: np.ndarray) -> np.ndarray:
     """sigma_max / sigma_min (the literal eq. 36); inf where singular."""
-    s, good = singular_values(A)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        c = s[..., 0] / s[..., -1]
-    return np.where(good & _full_rank(s, A), c, np.inf)
+    return cond_2_of(*singular_values(A), A.shape)
 
 
 def cond_fro(A: np.ndarray) -> np.ndarray:
@@ -83,10 +78,29 @@ def cond_fro(A: np.ndarray) -> np.ndarray:
 
     Uses the singular values: ||A||_F^2 = sum s^2, ||A^-1||_F^2 = sum 1/s^2.
     """
-    s, good = singular_values(A)
+    return cond_fro_of(*singular_values(A), A.shape)
+
+
+# the same values from singular values already computed (s, good) = singular_values(A)
+# (so that several indices of one matrix need one SVD)
+def sigma_max_of(s: np.ndarray, good: np.ndarray) -> np.ndarray:
+    return np.where(good, s[..., 0], np.inf)
+
+
+def sigma_min_of(s: np.ndarray, good: np.ndarray) -> np.ndarray:
+    return np.where(good, s[..., -1], 0.0)
+
+
+def cond_2_of(s: np.ndarray, good: np.ndarray, shape: tuple) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = s[..., 0] / s[..., -1]
+    return np.where(good & _full_rank(s, shape), c, np.inf)
+
+
+def cond_fro_of(s: np.ndarray, good: np.ndarray, shape: tuple) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         c = np.sqrt(np.sum(s * s, axis=-1) * np.sum(1.0 / (s * s), axis=-1))
-    return np.where(good & _full_rank(s, A) & np.isfinite(c), c, np.inf)
+    return np.where(good & _full_rank(s, shape) & np.isfinite(c), c, np.inf)
 
 
 @dataclass(frozen=True)

@@ -171,25 +171,36 @@ VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
 def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
     """The numpy path's local values (5, K) at the pairs (design dd[i], point
     jj[i]): the ill-conditioned points the kernel leaves to LAPACK."""
-    from ..indices import local_index
+    from ..indices import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singular_values
+    from ..mechanisms.p4s import _platform_mass, _solve_T
 
     shape = mech.design_shape
     D = int(np.prod(shape)) if len(shape) else 1
     params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] for k, v in mech.params.items()}
     m = type(mech)(**params)
     Xk = np.asarray(X, dtype=float)[jj]
-    out = np.full((5, len(dd)), np.nan)
+    K = len(dd)
+    out = np.full((5, K), np.nan)
     with np.errstate(all="ignore"):
-        J = m.jacobian(Xk)
+        # the numpy path's own operations (P4S.jacobian, P4S.mass_matrix and the
+        # index functions), with the branch state computed once and one SVD
+        # call for the stack [J; M] (each matrix's singular values do not
+        # depend on the stack it is in)
+        st = m.branch_state(Xk)
+        J = st["n"] / st["s"][..., None]
         if want[0]:
-            out[0] = local_index("dynamic", M=m.mass_matrix(Xk))
+            sv, good = singular_values(np.concatenate([J, _solve_T(J, _platform_mass(m, st))]))
+            sJ, gJ, sM, gM = sv[:K], good[:K], sv[K:], good[K:]
+            out[0] = sigma_max_of(sM, gM)
+        else:
+            sJ, gJ = singular_values(J)
         if want[1] or want[2]:
-            out[2] = local_index("stiffness", J=J, convention="sqrt_lambda_min_K", options={"k": 1.0})
-            out[1] = out[2] * out[2]    # the numpy path's k * s * s with k = 1
+            out[2] = np.sqrt(1.0) * sigma_min_of(sJ, gJ)   # the numpy path's sqrt(k) s with k = 1
+            out[1] = out[2] * out[2]                       # and its k * s * s
         if want[3]:
-            out[3] = local_index("isotropy", J=J, convention="frobenius")
+            out[3] = cond_fro_of(sJ, gJ, J.shape)
         if want[4]:
-            out[4] = local_index("isotropy", J=J, convention="two_norm")
+            out[4] = cond_2_of(sJ, gJ, J.shape)
     return out
 
 
