@@ -523,6 +523,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                 folder.mark_stage_done(st.name)
                 progress.note(f"{st.name} done (worker process)")
             stop.check()
+        if pool is not None:  # let the workers exit while the results and the report are written
+            pool.shutdown(wait=False)
         stages = {st.name: stages[st.name] for st in plan}
         results = _final_results(cfg, folder, seed, stages, _ordered(cfg, lo), _ordered(cfg, hi), ws)
         wall = wall_before + time.perf_counter() - t0
