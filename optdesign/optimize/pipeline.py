@@ -79,6 +79,12 @@ class Progress:
         self.stream.write(f"\r{self.label:<24} [{'#' * k}{'.' * (width - k)}] {gen}/{self.total}{best_txt} {el:5.1f}s ")
         self.stream.flush()
 
+    def waiting(self, names, since: float):
+        """A status line while this process waits for stages running in worker processes."""
+        if self.enabled:
+            self.stream.write(f"\r{', '.join(names)} (worker process) {time.perf_counter() - since:5.1f}s ")
+            self.stream.flush()
+
     def note(self, text: str):
         """A line of its own (e.g. a stage a worker process finished)."""
         if self.enabled:
@@ -516,7 +522,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             elif running:
                 if not report_warm:  # idle until a worker finishes: load the plotting library meanwhile
                     report_warm = _warm_report()
-                _wait_any(running, stop)
+                _wait_any(running, stop, progress)
             for fut in [f for f in running if f.done()]:
                 st = running.pop(fut)
                 record(st, fut.result())
@@ -585,14 +591,19 @@ def _warm_report() -> bool:
     return True
 
 
-def _wait_any(running: dict, stop: _StopRequest) -> None:
+def _wait_any(running: dict, stop: _StopRequest, progress: Progress) -> None:
     """Wait until a worker's stage ends or a stop is requested (checked every 50 ms)."""
     from concurrent.futures import FIRST_COMPLETED, wait
 
+    t0 = time.perf_counter()
+    names = [st.name for st in running.values()]
     while not stop.requested():
         done, _ = wait(list(running), timeout=0.05, return_when=FIRST_COMPLETED)
         if done:
+            if progress.enabled:
+                progress.stream.write("\n")
             return
+        progress.waiting(names, t0)
 
 
 def _stop_workers(folder: RunFolder, pool, signum: int, wait: bool) -> None:
