@@ -430,19 +430,28 @@ def _chunk_two(P, d, inb, n, buf):
     _chunk_body(P, d, inb, n, True, buf)
 
 
-@njit(inline="always", **_NJIT)
-def _chunk(P, d, inb, n, want_two, buf):
-    """_chunk_body with want_two a compile-time constant: a run-time flag was
-    if-converted, not unswitched, so every point paid for the third
-    eigenvalue (cond_2) whether it was wanted or not."""
-    if want_two:
-        _chunk_two(P, d, inb, n, buf)
-    else:
+@njit(**_NJIT)
+def _chunk(P, d, inb, n, two, buf):
+    """_chunk_body with "2-norm condition wanted" a compile-time constant: a
+    run-time flag was if-converted, not unswitched, so every point paid for
+    the third eigenvalue (cond_2) whether it was wanted or not.  ``two`` is
+    None (Frobenius condition only) or True; the branch on ``two is None`` is
+    resolved from its type when numba compiles, so a signature with None
+    compiles (and caches) only the Frobenius loop, and one with a boolean only
+    the other."""
+    if two is None:
         _chunk_fro(P, d, inb, n, buf)
+    else:
+        _chunk_two(P, d, inb, n, buf)
+
+
+def p4s_local(P, X, want_two):
+    """See _p4s_local; ``want_two`` a bool (the 2-norm condition number wanted)."""
+    return _p4s_local(P, X, True if want_two else None)
 
 
 @njit(parallel=True, **_NJIT)
-def p4s_local(P, X, want_two):
+def _p4s_local(P, X, two):
     """Local values (NVAL, D, N) and the reach codes (D, N) (0 unreachable,
     1 reachable, 2 reachable but ill-conditioned) for D designs (rows of P, see
     design_constants) at the N points X (N, 3)."""
@@ -458,7 +467,7 @@ def p4s_local(P, X, want_two):
         buf = np.empty(6 * CHUNK)
         inb = np.empty(3 * CHUNK)
         _load_chunk(X, lo, hi, inb)
-        _chunk(P, d, inb, hi - lo, want_two, buf)
+        _chunk(P, d, inb, hi - lo, two, buf)
         for j in range(hi - lo):
             reach[d, lo + j] = np.int8(buf[j])
             for v in range(NVAL):
@@ -467,14 +476,14 @@ def p4s_local(P, X, want_two):
 
 
 @njit(**_NJIT_RED)
-def _chunk_stats(P, d, X, lo, hi, want, want_two, reach, inb, buf, out, hard):
+def _chunk_stats(P, d, X, lo, hi, want, two, reach, inb, buf, out, hard):
     """Values of design d at points lo..hi-1 (reach codes written), then for
     each wanted value its sum, min, max and centred sum of squares over the
     points of code 1 into out (NVAL, 4); returns their count (and the count of
     code-2 points in hard[0])."""
     n = hi - lo
     _load_chunk(X, lo, hi, inb)
-    _chunk(P, d, inb, n, want_two, buf)
+    _chunk(P, d, inb, n, two, buf)
     k = 0
     nh = 0
     for j in range(n):
@@ -511,8 +520,14 @@ def _chunk_stats(P, d, X, lo, hi, want, want_two, reach, inb, buf, out, hard):
     return k
 
 
-@njit(parallel=True, **_NJIT)
 def p4s_summary(P, X, want, want_two):
+    """See _p4s_summary; ``want_two`` a bool (the 2-norm condition number
+    wanted).  Each value of it compiles its own specialization on first use."""
+    return _p4s_summary(P, X, want, True if want_two else None)
+
+
+@njit(parallel=True, **_NJIT)
+def _p4s_summary(P, X, want, two):
     """Per-design sums over the points of reach code 1 of the wanted local
     values (want: NVAL booleans): returns stats (NVAL, 4, D) with stats[:, 0..3]
     = sum, min, max and centred sum of squares, the counts (D,) of code-1
@@ -538,7 +553,7 @@ def p4s_summary(P, X, want, want_two):
         hi = min(lo + CHUNK, N)
         buf = np.empty(6 * CHUNK)
         inb = np.empty(3 * CHUNK)
-        cnt[d, c] = _chunk_stats(P, d, X, lo, hi, want, want_two, reach[d, lo:hi], inb, buf, part[d, c],
+        cnt[d, c] = _chunk_stats(P, d, X, lo, hi, want, two, reach[d, lo:hi], inb, buf, part[d, c],
                                  hard[d, c:c + 1])
     stats = np.full((NVAL, 4, D), np.nan)
     counts = np.zeros(D, dtype=np.int64)
