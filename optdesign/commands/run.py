@@ -47,7 +47,7 @@ def execute(args, after=None, cfg=None) -> int:
         raise UsageError(str(exc)) from None
     except Interrupted as exc:
         where = getattr(exc, "folder", None) or "<RUN_DIR>"
-        print(f"optdesign: run interrupted; every finished generation is saved. "
+        print(f"optdesign: run interrupted; its last checkpoint is saved. "
               f"Finish it with: optdesign run --resume {where}", file=sys.stderr)
         return 130 if exc.signum == 2 else 143
     except RuntimeError as exc:

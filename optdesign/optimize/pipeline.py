@@ -308,9 +308,11 @@ class _StopRequest:
         self.previous: dict[int, object] = {}
         self.stop_file = stop_file
         self.parent = parent
+        self.insisted = False   # a second signal: stop now, do not wait for stage workers
 
     def handler(self, signum, frame):
         if self.signum is not None:
+            self.insisted = True
             raise Interrupted(signum)
         self.signum = signum
 
@@ -548,7 +550,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     except KeyboardInterrupt as exc:
         if not isinstance(exc, Interrupted):
             exc = Interrupted(signal.SIGINT)
-        _stop_workers(folder, pool, exc.signum, wait=stop.signum is not None and exc.signum == stop.signum)
+        _stop_workers(folder, pool, exc.signum, wait=not stop.insisted)
         folder.update_manifest(status="interrupted", wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         exc.folder = folder.path
         raise exc from None
@@ -574,10 +576,16 @@ def _worker_ready() -> bool:
 
 
 def _warm_kernels(cfg: Config, ws) -> None:
+    """One evaluation of the config's initial design: loads (or compiles) the
+    compiled kernels the run will use.  Only a warm-up: a failure here is left
+    for the stages to report."""
     from ..evaluate import evaluate
 
-    with np.errstate(all="ignore"):
-        evaluate(cfg, [cfg.initial_design()], ws)
+    try:
+        with np.errstate(all="ignore"):
+            evaluate(cfg, [cfg.initial_design()], ws)
+    except Exception:  # noqa: BLE001
+        pass
 
 
 def _warm_report() -> bool:
@@ -597,13 +605,15 @@ def _wait_any(running: dict, stop: _StopRequest, progress: Progress) -> None:
 
     t0 = time.perf_counter()
     names = [st.name for st in running.values()]
+    shown = False
     while not stop.requested():
         done, _ = wait(list(running), timeout=0.05, return_when=FIRST_COMPLETED)
         if done:
-            if progress.enabled:
-                progress.stream.write("\n")
-            return
+            break
         progress.waiting(names, t0)
+        shown = True
+    if shown:
+        progress.finish()
 
 
 def _stop_workers(folder: RunFolder, pool, signum: int, wait: bool) -> None:
