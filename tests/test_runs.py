@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from optdesign.config import load_config
+from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import Interrupted
 from optdesign.optimize.runner import resume_run, start_run
 from optdesign.runs import FORMAT_VERSION, RunFolder, RunFolderError
@@ -97,6 +97,22 @@ def test_resume_equals_uninterrupted(finished, tmp_path, stop_after):
     assert not (folder / "results.json").exists()
     res = resume_run(folder)
     assert res.results["status"] == "complete"
+    assert _strip(res.results) == _strip(finished.results)
+
+
+def test_a_stop_saves_a_checkpoint_whatever_the_interval(finished, tmp_path):
+    """With checkpoint_interval far longer than the run, no checkpoint is written
+    on the way, but a stop still saves one, and the resumed run ends as the
+    uninterrupted one (which checkpointed every generation)."""
+    cfg = parse_config(SMALL.read_text().replace("checkpoint_interval: 0", "checkpoint_interval: 100000"),
+                       source=str(SMALL))
+    assert cfg.optimizer.checkpoint_interval == 100000
+    with pytest.raises(Interrupted):
+        start_run(cfg, seed=7, out=tmp_path, name="cut", stop_after=11)   # inside the second stage
+    (folder,) = list(tmp_path.iterdir())
+    (ck,) = list(folder.rglob("checkpoint.pkl"))
+    assert len(RunFolder(folder).load_checkpoint(ck.parent.name)["history"]) == 11 - 8
+    res = resume_run(folder)
     assert _strip(res.results) == _strip(finished.results)
 
 
