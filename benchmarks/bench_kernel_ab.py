@@ -100,7 +100,9 @@ def check_bitwise(new, old, cases):
     for name, P, X in cases:
         for two in (False, True):
             for wname, want in (("dyn,stiff2,fro", np.array([True, True, False, True, False])),
-                                ("all", np.array([True, True, True, True, True]))):
+                                ("all", np.array([True, True, True, True, True])),
+                                ("fro", np.array([False, False, False, True, False])),
+                                ("stiff1,two", np.array([False, False, True, False, True]))):
                 a = old.p4s_summary(P, X, want, two)
                 b = new.p4s_summary(P, X, want, two)
                 same = len(a) == len(b) and all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b))
