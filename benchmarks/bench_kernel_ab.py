@@ -2,7 +2,8 @@
 the one of an earlier revision whose kernel has the current signature
 (``p4s_summary(P, X, want, want_two)``, ``p4s_local(P, X, want_two)`` with X
 (N, 3) C-contiguous; b3b39c7 and later), in the same process: the old file is
-taken from git and compiled into a temporary module with its own numba cache.
+taken from git and compiled as a module of its own (in a directory under the
+temp dir that is kept between runs, so its numba cache is reused).
 
 * speed of the bare kernel ``p4s_summary`` (incl. the per-design reductions),
   indices dynamic, stiffness, Frobenius isotropy (as ``optdesign bench``
@@ -14,10 +15,10 @@ taken from git and compiled into a temporary module with its own numba cache.
   stats, counts, reach codes, code-2 counts; values and codes of
   ``p4s_local``) with want_two False and True, on the bench inputs and on
   random designs/poses over the wider ranges of ``tests/test_fast.py``
-  (unreachable and near-singular points included), plus exactly singular and
-  centre poses.
+  (unreachable and near-singular points included), plus the workspace centre
+  and poses along the axis across the reachable range.
 
-    python benchmarks/bench_kernel_ab.py [--rev b3b39c7] [--repeat 9] [--threads 1 2] [--no-two]
+    python benchmarks/bench_kernel_ab.py [--rev b3b39c7] [--repeat 9] [--threads 1 2] [--no-check]
 """
 from __future__ import annotations
 
@@ -86,8 +87,8 @@ def _wide_inputs(D, N, seed):
     X[2] = [0.0, 0.0, 0.0]
     mech = P4S(**{k: np.asarray(v)[:, None] for k, v in des.items()})
     P = fast.design_constants(mech)
-    # poses on the reach boundary of design 0 (disc_i = 0: s_i = 0, exactly singular)
-    # and poses near it
+    # poses on the axis across the reachable range (in and out of reach) and
+    # the same shifted by 1e-9 m
     z0 = np.linspace(0.3, 0.9, 2001)
     Xb = np.c_[np.zeros_like(z0), np.zeros_like(z0), z0]
     X = np.ascontiguousarray(np.r_[X, Xb, Xb + 1e-9])
@@ -123,8 +124,8 @@ def main(argv=None):
     ap.add_argument("--rev", default="b3b39c7", help="git revision of the old kernel file (default b3b39c7)")
     ap.add_argument("--repeat", type=int, default=9)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--no-two", action="store_true", help="skip the want_two=True variant (saves two compiles)")
-    ap.add_argument("--no-check", action="store_true", help="timings only")
+    ap.add_argument("--no-check", action="store_true",
+                    help="timings only (the check compiles the want_two=True variants too)")
     args = ap.parse_args(argv)
 
     import numba
@@ -140,8 +141,6 @@ def main(argv=None):
                  ("bench 1 x 10^5", *_bench_inputs(1, 100_000, seed=3)),
                  ("wide 40 x 5000", *_wide_inputs(40, 5000, seed=7)),
                  ("wide 7 x 777", *_wide_inputs(7, 777, seed=11))]
-        if args.no_two:
-            raise SystemExit("--no-two with the check: use --no-check")
         ok, lines = check_bitwise(new, old, cases)
         print("bitwise check against", args.rev, ":", "ALL EQUAL" if ok else "DIFFERENCES")
         print("\n".join(lines))
