@@ -475,6 +475,64 @@ def _p4s_local(P, X, two):
     return vals, reach
 
 
+@njit(inline="always", **_NJIT)
+def _next_wanted(want, v):
+    """The first wanted value index >= v, NVAL if none."""
+    while v < NVAL and not want[v]:
+        v += 1
+    return v
+
+
+@njit(**_NJIT)
+def _sum_min_max(buf, n, o1, o2, o3, out1, out2, out3):
+    """Sum, min and max over the points of reach code 1 (buf[j] == 1) of the
+    rows at o1, o2 and o3 of buf into out1..3[0:3]: one scalar pass, the sums
+    in point order (compiled without reassociation, so each sum is the
+    sequential one), three independent chains instead of one loop each."""
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    l1 = np.inf
+    l2 = np.inf
+    l3 = np.inf
+    h1 = -np.inf
+    h2 = -np.inf
+    h3 = -np.inf
+    ra = buf[0:n]
+    x1a = buf[o1:o1 + n]
+    x2a = buf[o2:o2 + n]
+    x3a = buf[o3:o3 + n]
+    for j in range(n):
+        r = ra[j] == 1.0
+        x1 = x1a[j]
+        x2 = x2a[j]
+        x3 = x3a[j]
+        s1 += x1 if r else 0.0
+        s2 += x2 if r else 0.0
+        s3 += x3 if r else 0.0
+        xl = x1 if r else np.inf
+        xh = x1 if r else -np.inf
+        l1 = xl if xl < l1 else l1
+        h1 = xh if xh > h1 else h1
+        xl = x2 if r else np.inf
+        xh = x2 if r else -np.inf
+        l2 = xl if xl < l2 else l2
+        h2 = xh if xh > h2 else h2
+        xl = x3 if r else np.inf
+        xh = x3 if r else -np.inf
+        l3 = xl if xl < l3 else l3
+        h3 = xh if xh > h3 else h3
+    out1[0] = s1
+    out1[1] = l1
+    out1[2] = h1
+    out2[0] = s2
+    out2[1] = l2
+    out2[2] = h2
+    out3[0] = s3
+    out3[1] = l3
+    out3[2] = h3
+
+
 @njit(**_NJIT_RED)
 def _chunk_stats(P, d, X, lo, hi, want, two, reach, inb, buf, out, hard):
     """Values of design d at points lo..hi-1 (reach codes written), then for
@@ -492,30 +550,27 @@ def _chunk_stats(P, d, X, lo, hi, want, two, reach, inb, buf, out, hard):
         k += 1 if r == 1.0 else 0
         nh += 1 if r == 2.0 else 0
     hard[0] = nh
+    # sums, minima and maxima: up to three wanted values per pass over the
+    # points (_sum_min_max: in order, no reassociation)
+    v1 = _next_wanted(want, 0)
+    while v1 < NVAL:
+        v2 = _next_wanted(want, v1 + 1)
+        v2 = v1 if v2 == NVAL else v2
+        v3 = _next_wanted(want, v2 + 1)
+        v3 = v2 if v3 == NVAL else v3
+        _sum_min_max(buf, n, (v1 + 1) * CHUNK, (v2 + 1) * CHUNK, (v3 + 1) * CHUNK, out[v1], out[v2], out[v3])
+        v1 = _next_wanted(want, v3 + 1)
     for v in range(NVAL):
         if not want[v]:
             continue
         o = (v + 1) * CHUNK
-        s = 0.0
-        lo_v = np.inf
-        hi_v = -np.inf
-        for j in range(n):
-            r = buf[j] == 1.0
-            x = buf[o + j]
-            s += x if r else 0.0
-            xl = x if r else np.inf
-            xh = x if r else -np.inf
-            lo_v = xl if xl < lo_v else lo_v
-            hi_v = xh if xh > hi_v else hi_v
+        s = out[v, 0]
         m2 = 0.0
         if k > 0:
             mu = s / k
             for j in range(n):
                 e = buf[o + j] - mu
                 m2 += e * e if buf[j] == 1.0 else 0.0
-        out[v, 0] = s
-        out[v, 1] = lo_v
-        out[v, 2] = hi_v
         out[v, 3] = m2
     return k
 
@@ -544,8 +599,10 @@ def _p4s_summary(P, X, want, two):
     nch = (N + CHUNK - 1) // CHUNK
     reach = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
-    cnt = np.zeros((D, nch), dtype=np.int64)
-    hard = np.zeros((D, nch), dtype=np.int64)
+    # np.empty, not np.zeros: every task writes its entries, and each
+    # np.zeros would be a parallel region of its own (a fork/join per call)
+    cnt = np.empty((D, nch), dtype=np.int64)
+    hard = np.empty((D, nch), dtype=np.int64)
     for t in prange(D * nch):
         d = t // nch
         c = t % nch
@@ -556,8 +613,9 @@ def _p4s_summary(P, X, want, two):
         cnt[d, c] = _chunk_stats(P, d, X, lo, hi, want, two, reach[d, lo:hi], inb, buf, part[d, c],
                                  hard[d, c:c + 1])
     stats = np.full((NVAL, 4, D), np.nan)
-    counts = np.zeros(D, dtype=np.int64)
-    for d in prange(D):
+    counts = np.empty(D, dtype=np.int64)
+    # serially: a few operations per chunk, less than waking the threads again
+    for d in range(D):
         _combine(d, nch, want, cnt, part, stats, counts)
     return stats, counts, reach, hard.sum(axis=1)
 
