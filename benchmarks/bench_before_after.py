@@ -21,33 +21,23 @@ those of the old kernel.  Run ``uptime`` alongside: on a shared machine the
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import os
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _revision import kernel_module  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _old_kernels(rev: str, tmp: str, name: str = "_p4s_kernels"):
     """Module ``optdesign/fast/<name>.py`` of revision rev, or None if it has none."""
-    res = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/{name}.py"], capture_output=True,
-                         text=True)
-    if res.returncode != 0:
-        return None
-    src = res.stdout.replace("from ..mechanisms.p4s import E as _E", "from optdesign.mechanisms.p4s import E as _E")
-    path = os.path.join(tmp, f"old{name}.py")
-    with open(path, "w") as f:
-        f.write(src)
-    spec = importlib.util.spec_from_file_location(f"old{name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return kernel_module(rev, name, tmp)
 
 
 def _best(fn, repeat):

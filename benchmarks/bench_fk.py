@@ -18,35 +18,27 @@ the other jobs.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import os
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _revision import kernel_module  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def old_fk_module(rev: str, tmp: str):
+    """The FK kernels of revision rev (in ``_fk_kernels.py``, or in ``_p4s_kernels.py`` before they moved)."""
     for name in ("_fk_kernels", "_p4s_kernels"):
-        res = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/{name}.py"], capture_output=True,
-                             text=True)
-        if res.returncode == 0:
-            break
-    else:
-        raise SystemExit(f"no FK kernel file at {rev}")
-    src = res.stdout.replace("from ..mechanisms.p4s import E as _E", "from optdesign.mechanisms.p4s import E as _E")
-    path = os.path.join(tmp, f"old{name}.py")
-    with open(path, "w") as f:
-        f.write(src)
-    spec = importlib.util.spec_from_file_location(f"old{name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+        mod = kernel_module(rev, name, tmp)
+        if mod is not None:
+            return mod
+    raise SystemExit(f"no FK kernel file at {rev}")
 
 
 def constants(mech) -> np.ndarray:

@@ -25,36 +25,22 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
+from _revision import kernel_module  # noqa: E402
 from bench_before_after import _best  # noqa: E402
 
 
 def _old_kernels(rev: str):
-    """``optdesign/fast/_p4s_kernels.py`` of revision rev as a module, from a
-    directory of its own under the temp dir (kept between runs, file rewritten
-    only when it changed, so its numba cache survives)."""
-    import importlib.util
-    import subprocess
-
-    src = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/_p4s_kernels.py"], capture_output=True,
-                         text=True, check=True).stdout
-    src = src.replace("from ..mechanisms.p4s import E as _E", "from optdesign.mechanisms.p4s import E as _E")
-    d = os.path.join(tempfile.gettempdir(), f"optdesign_ab_kernels_{rev}")
-    os.makedirs(d, exist_ok=True)
-    path = os.path.join(d, "old_p4s_kernels.py")
-    if not os.path.exists(path) or open(path).read() != src:
-        with open(path, "w") as f:
-            f.write(src)
-    spec = importlib.util.spec_from_file_location(f"old_p4s_kernels_{rev}", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod     # numba's cache rebuilds environments by module name
-    spec.loader.exec_module(mod)
+    """``optdesign/fast/_p4s_kernels.py`` of revision rev as a module (kept in a
+    directory of its own under the temp dir, so its numba cache survives)."""
+    mod = kernel_module(rev)
+    if mod is None:
+        raise SystemExit(f"no optdesign/fast/_p4s_kernels.py at {rev}")
     return mod
 
 

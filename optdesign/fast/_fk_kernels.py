@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit, prange
-from numba.core import types
-from numba.extending import intrinsic
 
 from ..mechanisms.p4s import E as _E
+from ._jit import NJIT as _NJIT
+from ._jit import fma as _fma
 
 # e_i components (x, y; the z components are 0); e_0 = (1, 0, 0) exactly, which
 # the kernel uses to drop the terms a0 * 0 and a0 * 1
@@ -30,18 +29,6 @@ if not (_E[0, 0] == 1.0 and _E[0, 1] == 0.0 and not _E[:, 2].any()):
 # which products to fuse, so the vectorized loop, its scalar remainder and the
 # scalar loop taken when out aliases Q give bitwise the same results.  No
 # fast-math flag: NaN where the spheres do not meet must survive.
-_NJIT = dict(cache=True, error_model="numpy", fastmath=False)
-
-
-@intrinsic
-def _fma(typingctx, a, b, c):
-    """a * b + c with one rounding (llvm.fma: one instruction where the CPU has FMA)."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return sig, codegen
 
 
 #: poses per task: the unit of parallel work

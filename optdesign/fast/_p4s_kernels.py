@@ -39,10 +39,10 @@ import math
 
 import numpy as np
 from numba import njit, prange
-from numba.core import types
-from numba.extending import intrinsic
 
 from ..mechanisms.p4s import E as _E
+from ._jit import NJIT as _NJIT
+from ._jit import fma as _fma
 
 #: points per task: the unit of parallel work and of the partial reductions
 CHUNK = 512
@@ -73,21 +73,9 @@ _RANKDEF = (1.0 / (3.0 * 2.220446049250313e-16)) ** 2
 #: 1e6 flags every point with cond_2 >= 1000 (some from 577).
 HARD = 1.0e6
 
-_NJIT = dict(cache=True, error_model="numpy", fastmath=False)
 # the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 # order is still fixed by the code, so results do not depend on threads)
 _NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
-
-
-@intrinsic
-def _fma(typingctx, a, b, c):
-    """a * b + c with one rounding (llvm.fma: one instruction where the CPU has FMA)."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return sig, codegen
 
 
 @njit(inline="always", **_NJIT)
