@@ -181,6 +181,43 @@ def _kill_resumed_run_again(folder: Path, out: Path, second: int) -> None:
     print(f"{sig.name}: resumed run killed after {observed2} checkpoint writes (target {second}), status {rc2}")
 
 
+def _children(pid: int) -> list[int]:
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except (FileNotFoundError, ProcessLookupError):
+        return []
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except (FileNotFoundError, ProcessLookupError):
+        return ""
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("delay", [0.0, 0.15, 0.3])
+def test_sigkill_while_the_stage_worker_starts_leaves_no_process(tiny, tmp_path, delay):
+    """The main process SIGKILLed while its stage worker is still starting up
+    (``delay`` s after the worker process appears): the worker must not
+    outlive it (it would hold the run folder and the caller's pipes)."""
+    out = tmp_path / "runs"
+    proc = _start(tiny, out)
+    worker = None
+    deadline = time.time() + 120
+    while proc.poll() is None and time.time() < deadline and worker is None:
+        worker = next((c for c in _children(proc.pid) if "spawn_main" in _cmdline(c)), None)
+        time.sleep(0.001)
+    assert worker is not None, "no stage worker seen"
+    time.sleep(delay)
+    proc.kill()
+    proc.communicate(timeout=60)       # returns once no process holds the pipes
+    t0 = time.time()
+    while _cmdline(worker) and time.time() - t0 < 30:
+        time.sleep(0.05)
+    assert not _cmdline(worker), "the stage worker outlived its SIGKILLed parent"
+
+
 def test_many_folders_created_at_once(tmp_path):
     """Eight processes create a folder with the same name in the same second."""
     code = ("import sys, time; from optdesign.runs import RunFolder\n"

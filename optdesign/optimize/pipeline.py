@@ -375,7 +375,7 @@ def _execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, 
 _busy = False
 
 
-def _worker_init() -> None:
+def _worker_init(parent: int) -> None:
     # a Ctrl-C on the terminal reaches every process of the group: an idle
     # worker ignores it, a busy one stops at its generation boundary (its
     # task installs a _StopRequest)
@@ -383,7 +383,9 @@ def _worker_init() -> None:
     _set_kernel_threads(1)
     import threading
 
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    # the parent's pid comes from the parent: it may have died while this
+    # worker was starting, and os.getppid() would then already name another process
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
 
 def _watch_parent(parent: int, poll: float = 0.2, grace: float = 10.0) -> None:
@@ -501,7 +503,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             from concurrent.futures import ProcessPoolExecutor
 
             threads = _set_kernel_threads(1)
-            pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_worker_init)
+            pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_worker_init,
+                                       initargs=(os.getpid(),))
             for _ in range(workers):  # start the workers (their imports) now
                 pool.submit(_worker_ready)
             # load (on a fresh installation: compile and cache) the kernels here
