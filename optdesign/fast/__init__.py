@@ -195,8 +195,8 @@ def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
         else:
             sJ, gJ = singular_values(J)
         if want[1] or want[2]:
-            out[2] = np.sqrt(1.0) * sigma_min_of(sJ, gJ)   # the numpy path's sqrt(k) s with k = 1
-            out[1] = out[2] * out[2]                       # and its k * s * s
+            out[2] = sigma_min_of(sJ, gJ)   # the numpy path's sqrt(k) s with k = 1 (exactly s)
+            out[1] = out[2] * out[2]        # and its k * s * s
         if want[3]:
             out[3] = cond_fro_of(sJ, gJ, J.shape)
         if want[4]:
