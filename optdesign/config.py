@@ -324,8 +324,12 @@ def _from_mapping(data: Any, source: str) -> Config:
     if not isinstance(data, dict):
         data = dict(data)
     r.only(data, "", _TOP_KEYS)
-    mech_name = r.string(r.require(data, "mechanism", ""), "mechanism")
-    if mech_name not in available():
+    mech_name = r.require(data, "mechanism", "")
+    described = isinstance(mech_name, Mapping)
+    if described:  # a mechanism described as data (optdesign/mechanisms/described)
+        mech_name = _register_described(r, mech_name, data.get("name"))
+    mech_name = r.string(mech_name, "mechanism")
+    if not described and mech_name not in available():
         r.fail("mechanism", f"unknown mechanism {mech_name!r}; expected one of {', '.join(available())}")
     mech_cls = get(mech_name)
     name = data.get("name", Path(source).stem if source != "<string>" else mech_name)
@@ -377,6 +381,10 @@ def _from_mapping(data: Any, source: str) -> Config:
     _check_design(r, mech_cls, {k: v.value for k, v in dvs.items()}, "design_variables")
     if "initial" not in designs:
         designs = {"initial": {k: v.value for k, v in dvs.items()}, **designs}
+    if described:  # the description's expressions and legs with these parameters and designs
+        problem = mech_cls.check_config(params, designs)
+        if problem:
+            r.fail(*problem)
 
     workspace = _workspace(r, r.require(data, "workspace", ""), mech_cls)
 
@@ -427,6 +435,16 @@ def _from_mapping(data: Any, source: str) -> Config:
     return Config(source=source, mechanism=mech_name, name=name, parameters=params,
                   design_variables=dvs, designs=designs, workspace=workspace, indices=indices,
                   optimizer=optimizer, reference=reference, raw=dict(data))
+
+
+def _register_described(r: _Reader, raw: Mapping, name: Any) -> str:
+    """Validate a mechanism description and register its class; its registry name."""
+    from .mechanisms.described import DescriptionError, register_description
+
+    try:
+        return register_description(raw, label=name if isinstance(name, str) else None)
+    except DescriptionError as exc:
+        r.fail(exc.path, exc.message)
 
 
 def _param_value(r: _Reader, v: Any, path: str, mech_cls, key: str) -> float:

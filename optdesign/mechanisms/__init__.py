@@ -30,6 +30,17 @@ def register(cls: type[Mechanism]) -> type[Mechanism]:
     return cls
 
 
+#: mechanisms built from descriptions in configs (optdesign.mechanisms.described);
+#: found by get(), not listed by available()
+_DESCRIBED: dict[str, type[Mechanism]] = {}
+
+
+def register_described(cls: type[Mechanism]) -> type[Mechanism]:
+    """Make a described mechanism's class available under ``cls.name``."""
+    _DESCRIBED[cls.name] = cls
+    return cls
+
+
 def available() -> list[str]:
     """Names of the mechanisms that can be built."""
     names = []
@@ -50,6 +61,8 @@ def available() -> list[str]:
 
 def get(name: str) -> type[Mechanism]:
     """The mechanism class registered under ``name``."""
+    if name in _DESCRIBED:
+        return _DESCRIBED[name]
     if name not in _REGISTRY and name in _MODULES:
         try:
             importlib.import_module(_MODULES[name])
@@ -61,4 +74,4 @@ def get(name: str) -> type[Mechanism]:
     return _REGISTRY[name]
 
 
-__all__ = ["Mechanism", "register", "available", "get"]
+__all__ = ["Mechanism", "register", "register_described", "available", "get"]

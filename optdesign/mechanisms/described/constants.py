@@ -1,0 +1,129 @@
+"""Per-design constant arrays of a described mechanism, evaluated from its
+expressions (vectorized over designs).
+
+With parameters of the design shape ``S`` (``()`` for one design, ``(D, 1)``
+for a population, as for the hand-written mechanisms) every array here has
+shape ``S + (n_legs, 3)`` (vectors), ``S + (n_legs,)`` (per-leg scalars) or
+``S + (3,)`` / ``S + (3, 3)`` / ``S`` (platform), so that they broadcast
+against the pose axis of ``X (..., N, dof)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .expr import evaluate
+from .schema import Description
+
+__all__ = ["Constants", "constants", "KIND_CODES", "BRANCH_CODES", "BODY_KEYS"]
+
+KIND_CODES = {"prismatic": 0, "revolute": 1, "strut": 2}
+BRANCH_CODES = {None: 0, "minus": 0, "plus": 1, "outer": 2, "inner": 3}
+#: per-leg body quantities (missing ones are 0; rod_count 1, centres 1/2,
+#: rod_inertia m l^2 / 12)
+BODY_KEYS = ("slider_mass", "crank_inertia", "crank_mass", "crank_centre", "rod_mass", "rod_count", "rod_inertia",
+             "rod_centre", "rod_width", "lower_mass", "lower_centre", "lower_inertia", "upper_mass", "upper_centre",
+             "upper_inertia")
+
+
+@dataclass
+class Constants:
+    shape: tuple                 # design shape
+    kind: np.ndarray             # (n,) int codes
+    branch: np.ndarray           # (n,) int codes
+    A: np.ndarray                # base points, S + (n, 3)
+    P: np.ndarray                # platform points (platform frame), S + (n, 3)
+    U: np.ndarray                # prismatic: unit rail direction; revolute: unit axis
+    R0: np.ndarray               # revolute: unit crank direction at q = 0 (perpendicular to U)
+    S0: np.ndarray               # revolute: U x R0
+    La: np.ndarray               # crank length, S + (n,) (0 where none)
+    Lr: np.ndarray               # rod length, S + (n,) (0 for struts)
+    across: np.ndarray           # rod.across unit vectors (0 where none), S + (n, 3)
+    centre: np.ndarray           # S + (3,): rotation centre (0 for other pose types)
+    fixed: np.ndarray            # S + (3,): roll, pitch, yaw where they are not coordinates (else 0)
+    m_platform: np.ndarray       # S
+    I_platform: np.ndarray       # S + (3, 3)
+    com: np.ndarray              # S + (3,)
+    g: np.ndarray                # S
+    body: dict                   # BODY_KEYS -> S + (n,)
+
+
+def _bc(v, shape) -> np.ndarray:
+    return np.broadcast_to(np.asarray(v, dtype=float), shape)
+
+
+def _turn(v: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rz(angle) v for v S + (3,), angle S."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1], v[..., 2]], -1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return v / np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+
+
+def constants(desc: Description, params: dict) -> Constants:
+    """Evaluate every expression of ``desc`` with the parameters ``params``
+    (name -> array of the design shape or scalar)."""
+    env = {k: np.asarray(v, dtype=float) for k, v in params.items()}
+    shape = np.broadcast_shapes(*(v.shape for v in env.values())) if env else ()
+    n = len(desc.legs)
+
+    def ev(tree):
+        with np.errstate(all="ignore"):
+            return _bc(evaluate(tree, env), shape)
+
+    def vec(trees):
+        return np.stack([ev(t) for t in trees], -1)
+
+    kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
+    branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
+    A, P, U, R0, AC = [], [], [], [], []
+    La, Lr = [], []
+    zero3 = np.zeros(shape + (3,))
+    for leg in desc.legs:
+        tb, tp = ev(leg.turn_base), ev(leg.turn_platform)
+        A.append(_turn(vec(leg.base), tb))
+        P.append(_turn(vec(leg.platform), tp))
+        u = _unit(_turn(vec(leg.direction), tb)) if leg.direction is not None else zero3
+        U.append(u)
+        if leg.reference is not None:
+            r = _turn(vec(leg.reference), tb)
+            r = r - np.sum(r * u, axis=-1, keepdims=True) * u
+            R0.append(_unit(r))
+        else:
+            R0.append(zero3)
+        AC.append(_unit(_turn(vec(leg.across), tb)) if leg.across is not None else zero3)
+        La.append(ev(leg.crank) if leg.crank is not None else np.zeros(shape))
+        Lr.append(ev(leg.rod) if leg.rod is not None else np.zeros(shape))
+    A, P, U, R0, AC = (np.stack(v, -2) for v in (A, P, U, R0, AC))
+    with np.errstate(all="ignore"):
+        S0 = np.cross(U, R0)
+    La, Lr = np.stack(La, -1), np.stack(Lr, -1)
+    pose = desc.pose
+    centre = vec(pose.centre)
+    fixed = np.stack([ev(pose.fixed[a]) if a in pose.fixed else np.zeros(shape) for a in ("roll", "pitch", "yaw")], -1)
+    plat = desc.platform
+    mp = ev(plat.mass) if plat.mass is not None else np.zeros(shape)
+    Ip = np.stack([np.stack([ev(t) for t in row], -1) for row in plat.inertia], -2)
+    com = vec(plat.com)
+    body = {}
+    for key in BODY_KEYS:
+        vals = []
+        for i, leg in enumerate(desc.legs):
+            if key in leg.bodies:
+                vals.append(ev(leg.bodies[key]))
+            elif key == "rod_count":
+                vals.append(np.ones(shape))
+            elif key in ("rod_centre", "crank_centre"):
+                vals.append(np.full(shape, 0.5))
+            elif key == "rod_inertia":
+                m = ev(leg.bodies["rod_mass"]) if "rod_mass" in leg.bodies else np.zeros(shape)
+                vals.append(m * Lr[..., i] ** 2 / 12.0)
+            else:
+                vals.append(np.zeros(shape))
+        body[key] = np.stack(vals, -1)
+    g = ev(desc.gravity)
+    return Constants(shape, kind, branch, A, P, U, R0, S0, La, Lr, AC, centre, fixed, mp, Ip, com, g, body)
