@@ -69,6 +69,11 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
         from .fast import try_evaluate
 
         fast = try_evaluate(config, mech, ws.X, names)
+        if fast is None and getattr(mech, "global_statistics", None) is not None:
+            # the mechanism's own compiled path (described mechanisms); None: the numpy path
+            from .mechanisms.described.compiled import requests_of
+
+            fast = mech.global_statistics(requests_of(config, names), ws.X)
     if fast is not None:
         summary, reach = fast
         local = {}

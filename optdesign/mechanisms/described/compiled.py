@@ -1,6 +1,267 @@
-"""The compiled path of described mechanisms (numba): see _kernels.py."""
+"""The compiled path of described mechanisms: the seam ``global_statistics``.
+
+One generic kernel (:mod:`._kernels`) serves every leg kind and pose type;
+what differs between mechanisms is data: the per-design constant arrays
+packed here from :class:`~.constants.Constants` (evaluated from the
+expressions in numpy, vectorized over the designs).
+
+``global_statistics(mech, requests, X)`` returns ``(summary, reachable)``
+with ``summary[name] = {"mean", "min", "max", "std", "count"}`` (arrays (D,))
+for the requested local indices over the reachable points, or ``None`` when
+the compiled path cannot answer (disabled with ``OPTDESIGN_FAST=0``, numba
+missing, an index or option it does not compute); the caller then runs the
+numpy path.  Points the kernel flags (``cond_F(J) >= 1000`` or not finite)
+are evaluated with the numpy path (the index functions of optdesign.indices
+on this mechanism's own matrices) and merged in, so the results equal the
+numpy path's to round-off (1e-12 relative) and do not depend on the number
+of threads.  With ``want_max_cond`` the summary also has ``"_max_cond_2"``:
+the largest cond_2(J) over the reachable points, (D,).
+"""
 from __future__ import annotations
 
+import math
+import warnings
+from dataclasses import dataclass
 
-def global_statistics(mech, requests, X, want_max_cond=False):
-    return None
+import numpy as np
+
+__all__ = ["IndexRequest", "requests_of", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
+
+try:  # the seam's request type (optdesign/mechanisms/base.py) where it exists
+    from ..base import IndexRequest
+except ImportError:  # until then: the same fields
+    @dataclass(frozen=True)
+    class IndexRequest:
+        name: str
+        kind: str
+        convention: str | None
+        options: tuple
+
+
+def requests_of(config, names) -> list:
+    """IndexRequests for the config's indices ``names``."""
+    out = []
+    for n in names:
+        s = config.indices[n]
+        out.append(IndexRequest(n, s.kind, s.convention, tuple(sorted((s.options or {}).items()))))
+    return out
+
+
+_kern = None
+_kern_error: BaseException | None = None
+
+
+def kernels():
+    """The kernel module, or None if numba is not usable here."""
+    global _kern, _kern_error
+    if _kern is None and _kern_error is None:
+        from ...fast import _passive_workers
+
+        _passive_workers()
+        try:
+            from . import _kernels as k
+            _kern = k
+        except Exception as exc:  # numba missing or broken: the numpy path
+            _kern_error = exc
+    return _kern
+
+
+def plan(requests, dof: int, has_dynamics: bool):
+    """[(name, kernel value, factor)] or None if a request is not computed by the kernel."""
+    from . import _kernels as K
+
+    out = []
+    for r in requests:
+        opts = dict(r.options or ())
+        k = opts.pop("k", 1.0)
+        try:
+            k = float(k)
+        except (TypeError, ValueError):
+            return None
+        if not (math.isfinite(k) and k > 0):
+            return None
+        if r.kind == "axis_stiffness":
+            a = opts.pop("axis", 0)
+            if opts or not float(a).is_integer() or not 0 <= int(a) < dof:
+                return None
+            out.append((r.name, K.COL0 + int(a), k))
+            continue
+        if opts:
+            return None
+        conv = r.convention
+        if r.kind == "dynamic" and has_dynamics:
+            out.append((r.name, K.DYN, 1.0))
+        elif r.kind == "stiffness":
+            out.append((r.name, K.SMIN2, k) if conv in (None, "lambda_min_K") else (r.name, K.SMIN, math.sqrt(k)))
+        elif r.kind == "isotropy":
+            out.append((r.name, K.FRO if conv in (None, "frobenius") else K.TWO, 1.0))
+        elif r.kind == "dexterity":
+            out.append((r.name, K.IFRO, float(dof) if conv == "normalized" else 1.0))
+        elif r.kind in ("manipulability", "driving"):
+            out.append((r.name, K.DET, 1.0))
+        else:
+            return None
+    return out
+
+
+_PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
+_ROLE = {"x": 0, "y": 1, "z": 2, "roll": 3, "pitch": 4, "yaw": 5}
+
+
+def pack(mech):
+    """(codes: ptype, conv, roles, cols, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
+    from . import _kernels as K
+    from .poses import twist_columns
+
+    C = mech.constants
+    shape = C.shape
+    if len(shape) > 2 or (len(shape) == 2 and shape[1] != 1):
+        raise ValueError(f"design parameters of shape {shape}: expected (D,) or (D, 1)")
+    D = int(np.prod(shape)) if shape else 1
+    n = len(C.kind)
+
+    def per_design(a, tail):
+        return np.broadcast_to(np.asarray(a, dtype=float), shape + tail).reshape((D,) + tail)
+
+    L = np.zeros((D, n, K.NL))
+    L[:, :, K.LA:K.LA + 3] = per_design(C.A, (n, 3))
+    L[:, :, K.LP:K.LP + 3] = per_design(C.P, (n, 3))
+    L[:, :, K.LU:K.LU + 3] = per_design(C.U, (n, 3))
+    L[:, :, K.LR0:K.LR0 + 3] = per_design(C.R0, (n, 3))
+    L[:, :, K.LS0:K.LS0 + 3] = per_design(C.S0, (n, 3))
+    L[:, :, K.LLA] = per_design(C.La, (n,))
+    L[:, :, K.LLR] = per_design(C.Lr, (n,))
+    B = {k: per_design(v, (n,)) for k, v in C.body.items()}
+    kind = C.kind
+    L[:, :, K.LMACT] = np.where(kind == 0, B["slider_mass"], np.where(kind == 1, B["crank_inertia"], 0.0))
+    L[:, :, K.LMROD] = np.where(kind != 2, B["rod_mass"] * B["rod_count"], 0.0)
+    L[:, :, K.LIROD] = np.where(kind != 2, B["rod_inertia"] * B["rod_count"], 0.0)
+    L[:, :, K.LFROD] = B["rod_centre"]
+    L[:, :, K.LM1] = np.where(kind == 2, B["lower_mass"], 0.0)
+    L[:, :, K.LE1] = B["lower_centre"]
+    L[:, :, K.LM2] = np.where(kind == 2, B["upper_mass"], 0.0)
+    L[:, :, K.LE2] = B["upper_centre"]
+    L[:, :, K.LI12] = np.where(kind == 2, B["lower_inertia"] + B["upper_inertia"], 0.0)
+    F = np.zeros((D, K.NF))
+    F[:, K.FCEN:K.FCEN + 3] = per_design(C.centre, (3,))
+    F[:, K.FFIX:K.FFIX + 3] = per_design(C.fixed, (3,))
+    F[:, K.FMP] = per_design(C.m_platform, ())
+    F[:, K.FIP:K.FIP + 9] = per_design(C.I_platform, (3, 3)).reshape(D, 9)
+    F[:, K.FCOM:K.FCOM + 3] = per_design(C.com, (3,))
+    spec = mech.pose_spec
+    codes = (_PTYPE[spec.type], 1 if spec.jacobian == "angular_velocity" else 0,
+             np.array([_ROLE[r] for r in spec.roles], dtype=np.int64),
+             np.array(twist_columns(spec), dtype=np.int64), np.ascontiguousarray(kind, dtype=np.int64),
+             np.ascontiguousarray(C.branch, dtype=np.int64))
+    return codes, np.ascontiguousarray(L), np.ascontiguousarray(F), D
+
+
+def _numpy_values(mech, X, dd, jj, entries):
+    """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i])."""
+    from ...indices import local_index
+
+    shape = mech.constants.shape
+    D = int(np.prod(shape)) if shape else 1
+    params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] if np.ndim(v) else v
+              for k, v in mech.params.items()}
+    sub = type(mech)(**params)
+    Xk = np.asarray(X, dtype=float)[jj]
+    needs = {"J"} | ({"M"} if any(e[0] == "dynamic" for e in entries) else set())
+    with np.errstate(all="ignore"):
+        mats = sub.index_matrices(Xk, needs)
+        return np.stack([local_index(kind, J=mats.get("J"), M=mats.get("M"), convention=conv, options=opts)
+                         for kind, conv, opts in entries])
+
+
+def _merge(stats, counts, extra, dd):
+    """Add values extra (V, K) of designs dd (K,) to per-design (sum, min, max, M2) stats (D, V, 4)."""
+    D = counts.shape[0]
+    nb = np.bincount(dd, minlength=D)
+    n = counts + nb
+    has_a, has_b = counts > 0, nb > 0
+    stats = stats.copy()
+    with np.errstate(all="ignore"):
+        for v in range(extra.shape[0]):
+            x = extra[v]
+            sb = np.bincount(dd, weights=x, minlength=D)
+            mb = sb / nb
+            m2b = np.bincount(dd, weights=(x - mb[dd]) ** 2, minlength=D)
+            lob = np.full(D, np.inf)
+            np.minimum.at(lob, dd, x)
+            hib = np.full(D, -np.inf)
+            np.maximum.at(hib, dd, x)
+            sa, loa, hia, m2a = (stats[:, v, i] for i in range(4))
+            delta = mb - sa / counts
+            both = has_a & has_b
+            stats[:, v, 0] = np.where(both, sa + sb, np.where(has_b, sb, sa))
+            stats[:, v, 1] = np.where(both, np.minimum(loa, lob), np.where(has_b, lob, loa))
+            stats[:, v, 2] = np.where(both, np.maximum(hia, hib), np.where(has_b, hib, hia))
+            stats[:, v, 3] = np.where(both, m2a + m2b + delta * delta * counts * nb / n, np.where(has_b, m2b, m2a))
+    return stats, n
+
+
+def global_statistics(mech, requests, X, want_max_cond: bool = False):
+    from ... import fast
+
+    if not fast.enabled():
+        return None
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != mech.dof:
+        return None
+    pl = plan(requests, mech.dof, mech.description.has_dynamics)
+    if pl is None:
+        return None
+    K = kernels()
+    if K is None:
+        return None
+    try:
+        codes, L, F, D = pack(mech)
+    except ValueError:
+        return None
+    rows = sorted({v for _, v, _ in pl} | ({K.TWO} if want_max_cond else set()))
+    want = np.zeros(K.NVAL, dtype=np.bool_)
+    want[rows] = True
+    Xc = np.ascontiguousarray(X)
+    try:
+        stats, counts, cd = K.summary(*codes, L, F, Xc, want)
+    except Exception as exc:  # a compile failure at first call: the numpy path from now on
+        cause = exc.__cause__ or exc.__context__
+        if isinstance(cause, BaseException) and not isinstance(cause, Exception):
+            raise cause from None
+        global _kern, _kern_error
+        _kern, _kern_error = None, exc
+        warnings.warn(f"described mechanisms: compiled kernel failed ({exc}); using the numpy path", RuntimeWarning)
+        return None
+    # per request: the kernel's sums scaled by the request's factor (factors are positive)
+    names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
+    scales = [(v, fac) for _, v, fac in pl] + ([(K.TWO, 1.0)] if want_max_cond else [])
+    st = np.stack([stats[:, v, :] * np.array([fac, fac, fac, fac * fac]) for v, fac in scales], axis=1)
+    dd, jj = np.nonzero(cd == 2)
+    if len(dd):
+        byname = {r.name: r for r in requests}
+        entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
+        if want_max_cond:
+            entries.append(("isotropy", "two_norm", {}))
+        extra = _numpy_values(mech, X, dd, jj, entries)
+        st, counts = _merge(st, counts, extra, dd)
+    ok = counts > 0
+    summary = {}
+    with np.errstate(all="ignore"):
+        for i, name in enumerate(names):
+            mean = np.where(ok, st[:, i, 0] / counts, np.nan)
+            summary[name] = {"mean": mean, "min": np.where(ok, st[:, i, 1], np.nan),
+                             "max": np.where(ok, st[:, i, 2], np.nan),
+                             "std": np.where(ok & np.isfinite(mean), np.sqrt(st[:, i, 3] / counts), np.nan),
+                             "count": counts}
+    if want_max_cond:
+        summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
+    return summary, cd != 0
+
+
+def reach_codes(mech, X) -> np.ndarray:
+    """The kernel's reach codes (D, N): 0 unreachable, 1 reachable, 2 left to the numpy path."""
+    K = kernels()
+    codes, L, F, D = pack(mech)
+    want = np.zeros(K.NVAL, dtype=np.bool_)
+    want[K.FRO] = True
+    return K.summary(*codes, L, F, np.ascontiguousarray(X, dtype=float), want)[2]

@@ -1,0 +1,164 @@
+"""The compiled path of described mechanisms against the numpy path: every
+index kind and convention, every leg kind on every pose type, populations of
+designs, points handed to LAPACK, and independence of the thread count."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from described_helpers import CASES, description
+
+from optdesign import fast
+from optdesign.config import IndexSpec, load_config
+from optdesign.evaluate import evaluate, workspace_of
+from optdesign.workspace import Workspace
+
+ROOT = Path(__file__).resolve().parents[1]
+
+KINDS = {
+    "dyn": ("dynamic", None, {}),
+    "st": ("stiffness", "lambda_min_K", {"k": 2.0}),
+    "st_sqrt": ("stiffness", "sqrt_lambda_min_K", {}),
+    "iso": ("isotropy", "frobenius", {}),
+    "iso2": ("isotropy", "two_norm", {}),
+    "dex": ("dexterity", "plain", {}),
+    "dexn": ("dexterity", "normalized", {}),
+    "man": ("manipulability", None, {}),
+    "drv": ("driving", None, {}),
+    "ax0": ("axis_stiffness", None, {"axis": 0, "k": 3.0}),
+    "ax1": ("axis_stiffness", None, {"axis": 1}),
+}
+
+
+def _with_indices(cfg, dynamic=True):
+    idx = {n: IndexSpec(n, k, c, "min", dict(o)) for n, (k, c, o) in KINDS.items() if dynamic or k != "dynamic"}
+    return dataclasses.replace(cfg, indices=idx)
+
+
+def _compare(cfg, designs, ws=None, tol=1e-12):
+    with fast.disabled():
+        ref = evaluate(cfg, designs, ws)
+    got = evaluate(cfg, designs, ws)
+    assert np.array_equal(got.reachable, ref.reachable)
+    worst = 0.0
+    for name in cfg.indices:
+        for s in ("mean", "min", "max", "std"):
+            a, b = got.summary[name][s], ref.summary[name][s]
+            assert np.array_equal(np.isnan(a), np.isnan(b)), (name, s)
+            scale = np.maximum(np.abs(b), np.abs(ref.summary[name]["mean"]))
+            with np.errstate(invalid="ignore"):
+                rel = np.where(np.isfinite(b), np.abs(a - b) / np.where(scale > 0, scale, 1.0), 0.0)
+            worst = max(worst, float(np.max(rel)))
+            assert np.all(rel <= tol), (name, s, float(np.max(rel)))
+    return worst
+
+
+def _uses_kernel(cfg, designs, ws=None):
+    from optdesign.mechanisms.described.compiled import requests_of
+
+    ws = ws or workspace_of(cfg)
+    kw = dict(cfg.parameters)
+    kw.update({k: np.atleast_1d(np.asarray(v, float))[:, None] for k, v in designs.items()})
+    from optdesign.mechanisms import get
+
+    mech = get(cfg.mechanism)(**kw)
+    return mech.global_statistics(requests_of(cfg, list(cfg.indices)), ws.X) is not None
+
+
+def _random_designs(cfg, rng, D):
+    out = {}
+    for k, dv in cfg.design_variables.items():
+        lo, hi = dv.bounds if dv.bounds else (0.9 * dv.value, 1.1 * dv.value) if dv.value else (-0.01, 0.01)
+        out[k] = rng.uniform(lo, hi, D)
+    return out
+
+
+@pytest.mark.parametrize("name,spread", [("p4s_legs.yaml", None), ("gough_stewart.yaml", 0.1), ("delta.yaml", 0.1),
+                                         ("sps_s_legs.yaml", 0.2)])
+def test_configs_all_index_kinds(name, spread):
+    cfg = load_config(ROOT / "configs" / name)
+    cfg = _with_indices(cfg, dynamic=cfg.build(next(iter(cfg.designs))).description.has_dynamics)
+    rng = np.random.default_rng(5)
+    D = 8
+    if spread is None:
+        des = _random_designs(cfg, rng, D)
+    else:
+        des = {k: dv.value * rng.uniform(1 - spread, 1 + spread, D) for k, dv in cfg.design_variables.items()}
+    assert _uses_kernel(cfg, des)
+    _compare(cfg, des)
+
+
+@pytest.mark.parametrize("kind,ptype", CASES)
+def test_every_leg_kind_and_pose_type(kind, ptype):
+    from optdesign.config import parse_config
+
+    import yaml
+
+    desc = description(kind, ptype, masses=True)
+    desc["parameters"] = {"unused": {"kind": "number", "default": 1.0}}
+    from optdesign.mechanisms.described import build_class
+
+    mech = build_class(desc)()
+    spec = mech.pose_spec
+    axes = {}
+    for nme, role, h in zip(spec.names, spec.roles, spec.home):
+        span = 0.03 if role in ("x", "y", "z") else 0.08
+        axes[nme] = [h - span, h + span]
+    cfg_text = yaml.safe_dump({"mechanism": desc, "design_variables": {"unused": 1.0},
+                               "workspace": {"type": "box", "axes": axes, "sampling": "sobol", "points": 700},
+                               "indices": {"iso": {"kind": "isotropy"}}})
+    cfg = _with_indices(parse_config(cfg_text))
+    assert _uses_kernel(cfg, {"unused": np.array([1.0])})
+    _compare(cfg, [{"unused": 1.0}])
+
+
+def test_points_handed_to_lapack_and_unreachable_points():
+    """A Delta workspace reaching past the edge: unreachable points, and points
+    near the boundary singularity (cond_F >= 1000) that the kernel hands to the numpy path."""
+    from optdesign.mechanisms.described.compiled import reach_codes
+
+    cfg = _with_indices(load_config(ROOT / "configs" / "delta.yaml"))
+    g = np.linspace(-0.6, 0.6, 61)
+    X = np.stack(np.meshgrid(g, [0.0, 0.013], np.linspace(-0.9, -0.1, 41), indexing="ij"), -1).reshape(-1, 3)
+    ws = Workspace(spec=cfg.workspace, names=("x", "y", "z"), X=X)
+    mech = cfg.build("reference")
+    codes = reach_codes(mech, X)
+    assert (codes == 0).sum() > 100 and (codes == 2).sum() > 3 and (codes == 1).sum() > 1000
+    _compare(cfg, {"R": np.array([0.2, 0.21]), "r": np.array([0.05, 0.05]), "L_a": np.array([0.25, 0.26]),
+                   "L_b": np.array([0.6, 0.58])}, ws)
+
+
+def test_results_do_not_depend_on_the_thread_count():
+    import numba
+
+    cfg = _with_indices(load_config(ROOT / "configs" / "gough_stewart.yaml"))
+    rng = np.random.default_rng(9)
+    des = {k: dv.value * rng.uniform(0.9, 1.1, 6) for k, dv in cfg.design_variables.items()}
+    old = numba.get_num_threads()
+    try:
+        out = []
+        for n in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+            numba.set_num_threads(n)
+            out.append(evaluate(cfg, des).summary)
+    finally:
+        numba.set_num_threads(old)
+    for name in out[0]:
+        for s in ("mean", "min", "max", "std"):
+            assert np.array_equal(out[0][name][s], out[-1][name][s])
+
+
+def test_max_cond_and_unsupported_requests():
+    from optdesign.mechanisms.described.compiled import IndexRequest
+
+    cfg = load_config(ROOT / "configs" / "gough_stewart.yaml")
+    mech = cfg.build("reference")
+    X = workspace_of(cfg).X
+    s, reach = mech.global_statistics([IndexRequest("d", "dexterity", "plain", ())], X, want_max_cond=True)
+    from optdesign.indices import cond_2
+
+    assert np.isclose(s["_max_cond_2"][0], np.max(cond_2(mech.jacobian(X))), rtol=1e-12)
+    assert mech.global_statistics([IndexRequest("x", "stiffness", None, (("zz", 1.0),))], X) is None
+    with fast.disabled():
+        assert mech.global_statistics([IndexRequest("d", "dexterity", "plain", ())], X) is None
