@@ -39,12 +39,38 @@ def run(args) -> int:
         out = (mech.inverse(v) if args.kin == "ik" else mech.forward(v))[0]
     ok = bool(np.all(np.isfinite(out)))
     if args.json:
-        print(json.dumps({"design": design, "input": dict(zip(names_in, args.values)),
-                          "output": dict(zip(names_out, [float(x) if np.isfinite(x) else None for x in out])),
-                          "reachable": ok}))
+        rec = {"design": design, "input": dict(zip(names_in, args.values)),
+               "output": dict(zip(names_out, [float(x) if np.isfinite(x) else None for x in out])),
+               "reachable": ok}
+        if args.kin == "ik":
+            rec.update(_jacobians(mech, v))
+        print(json.dumps(rec))
     elif ok:
         print("  ".join(f"{n} = {x:.12g}" for n, x in zip(names_out, out)))
     else:
         what = "this pose" if args.kin == "ik" else "these actuator values"
         print(f"unreachable: no real solution for {what} ({design} design)")
     return 0 if ok else 1
+
+
+def _rows(J):
+    return [[float(x) if np.isfinite(x) else None for x in row] for row in J]
+
+
+def _jacobians(mech, v) -> dict:
+    """``jacobian``: dq/dx at the pose (rows: actuators, columns: pose coordinates,
+    in order; SI: per m and per rad); where the mechanism's own Jacobian (the one
+    its indices use) is on other velocity coordinates (angular velocity), that
+    one too, as ``jacobian_angular_velocity``."""
+    with np.errstate(all="ignore"):
+        own = mech.jacobian(v)[0]
+        rates = None
+        for name in ("jacobian_rates", "jacobian_euler"):  # described mechanisms; the 3-SPS-S module
+            if hasattr(mech, name):
+                rates = getattr(mech, name)(v)[0]
+                break
+    out = {"jacobian": _rows(own if rates is None else rates)}
+    if rates is not None and not np.array_equal(rates, own, equal_nan=True):
+        out["jacobian_angular_velocity"] = _rows(own)
+    return out
+
