@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from optdesign import screws as sc
 from optdesign.mechanisms import get
-from optdesign.mechanisms.cpr_rrr import LINEAR, ROTARY, motion_profile, paper_motion, plot_motion_example
+from optdesign.mechanisms.cpr_rrr import LINEAR, ROTARY
+from optdesign.studies.cpr_rrr_motion import motion_profile, paper_motion, plot_motion_example
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "cpr_rrr.yaml"
 DESIGN = dict(n=0.1, f=0.02, w=0.03, l1=0.2, l2=0.2)

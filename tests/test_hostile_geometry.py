@@ -27,6 +27,7 @@ import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
+from optdesign.evaluate import build
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import evaluate, workspace_of
 from optdesign.mechanisms.p4s import E, P4S, Z
@@ -98,7 +99,7 @@ def _warnings_are_errors():
 @pytest.mark.parametrize("design", ["before", "after"])
 @pytest.mark.parametrize("branch", [0, 1, 2])
 def test_exactly_singular_poses(design, branch):
-    mech = CFG_ALL.build(design)
+    mech = build(CFG_ALL, design)
     X = singular_poses(mech, branch, np.linspace(0.25, 0.6, 8))
     with np.errstate(all="ignore"):          # only to pick the test poses
         st_ = mech.branch_state(X)
@@ -128,7 +129,7 @@ def test_just_inside_and_just_outside_the_edge(eps):
     """Moving an exactly singular pose along the rod (outward) leaves the
     reachable region; moving it inward enters it with a large but finite
     condition number."""
-    mech = CFG_ALL.build("before")
+    mech = build(CFG_ALL, "before")
     X0 = singular_poses(mech, 0, [0.5])[0]
     n = np.sin(float(mech.phi)) * E[0] + np.cos(float(mech.phi)) * Z
     X = np.array([X0 + eps * n, X0 - eps * n, [0.0, 0.0, 0.57]])
@@ -222,7 +223,7 @@ def test_commands_at_the_edge_of_reachability(tmp_path):
         assert 0 < rec["reachable_fraction"] < 1
     rc, out, err = _run(tmp_path, ["atlas", "edge.yaml", "--design", "before", "--no-plots", "--resolution", "9"])
     assert rc == 0 and err == ""
-    mech = CFG.build("before")
+    mech = build(CFG, "before")
     X = singular_poses(mech, 0, [0.3])[0]
     rc, out, err = _run(tmp_path, ["ik", "edge.yaml", "--design", "before", *map(repr, X.tolist())])
     assert rc == 0 and err == "" and "l1" in out

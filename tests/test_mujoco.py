@@ -13,7 +13,7 @@ from hypothesis import assume, given, settings, strategies as st
 mujoco = pytest.importorskip("mujoco")
 
 from optdesign.mechanisms.p4s import P4S  # noqa: E402
-from optdesign.validation.mujoco_p4s import (  # noqa: E402
+from optdesign.mechanisms.p4s.mujoco import (  # noqa: E402
     P4SModel, inverse_dynamics, large_trajectory, paper_trajectory, simulate,
 )
 
@@ -30,7 +30,7 @@ def _paper():
 
 
 def _mech(cfg, name, **change):
-    kw = cfg.mechanism_kwargs(cfg.design(name))
+    kw = {**cfg.parameters, **cfg.design(name)}
     kw.update(change)
     return P4S(**kw)
 

@@ -26,7 +26,9 @@ def run(args) -> int:
 
     cfg = open_config(args.config)
     design = args.design or ("initial" if "initial" in cfg.designs else next(iter(cfg.designs)))
-    mech = cfg.build(design)
+    from ..evaluate import build
+
+    mech = build(cfg, design)
     n_in = mech.dof if args.kin == "ik" else mech.n_act
     names_in = mech.pose_names if args.kin == "ik" else mech.actuator_names
     names_out = mech.actuator_names if args.kin == "ik" else mech.pose_names

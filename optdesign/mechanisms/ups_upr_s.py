@@ -35,6 +35,7 @@ import numpy as np
 
 from . import register
 from .base import Mechanism
+from .params import Param
 
 PAPER_PARAMETERS = {"R": 0.260, "a1": 0.150, "a2": 0.150, "b1": 0.150, "b2": 0.100}
 
@@ -73,10 +74,12 @@ class UpsUprS(Mechanism):
     name = "ups_upr_s"
     pose_names = ("s_theta", "s_psi")
     actuator_names = ("q2", "q3")
-    design_parameters = ("R", "a1", "a2", "b1", "b2")
-    design_defaults = PAPER_PARAMETERS
-    length_parameters = ("R", "a1", "a2", "b1", "b2")
-    fixed_parameters: Mapping[str, float] = {}
+    parameters = tuple(Param(k, "length", v, design=True, low=0.0, low_open=True, doc=doc) for k, v, doc in (
+        ("R", PAPER_PARAMETERS["R"], "distance from the centre S to the platform joints"),
+        ("a1", PAPER_PARAMETERS["a1"], "base offset of the UPS leg"),
+        ("a2", PAPER_PARAMETERS["a2"], "base offset of the UPR leg"),
+        ("b1", PAPER_PARAMETERS["b1"], "platform offset of the UPS leg"),
+        ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPR leg")))
     supported_indices = ("isotropy", "dexterity", "manipulability")
     angular_axes = ()
 

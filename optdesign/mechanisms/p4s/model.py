@@ -21,12 +21,14 @@ Everything is batched over poses and (broadcast) designs.
 """
 from __future__ import annotations
 
+import math
 from typing import Mapping
 
 import numpy as np
 
-from . import register
-from .base import Mechanism
+from .. import register
+from ..base import ExtraObjective, Mechanism
+from ..params import Param
 
 _GAMMA = np.array([0.0, 2.0 * np.pi / 3.0, 4.0 * np.pi / 3.0])
 #: e_i, the unit vectors from the centre to the branches (3 branches x 3 components)
@@ -80,17 +82,34 @@ class P4S(Mechanism):
     name = "p4s"
     pose_names = ("x", "y", "z")
     actuator_names = ("l1", "l2", "l3")
-    design_parameters = ("r_a", "r_b", "L", "d", "phi")
-    length_parameters = ("r_a", "r_b", "L", "d")
-    fixed_parameters = {**PAPER_MASSES, "g": 9.81, "k": 1.0, "rods_per_branch": 2.0}
-    positive_parameters = ("k",)
-    nonnegative_parameters = ("m_platform", "m_slider", "m_rod", "rod_Ixx", "rod_Izz", "g", "rods_per_branch")
+    parameters = (
+        Param("r_a", "length", design=True, low=0.0, low_open=True, doc="platform circumradius"),
+        Param("r_b", "length", design=True, low=0.0, low_open=True, doc="base circumradius"),
+        Param("L", "length", design=True, low=0.0, low_open=True, doc="rod length of the parallelograms"),
+        Param("d", "length", design=True, low=0.0, low_open=True, doc="short side of the parallelograms"),
+        Param("phi", "angle", design=True, low=0.0, high=math.pi / 2, low_open=True, high_open=True,
+              doc="rail inclination from the base plane"),
+        Param("m_platform", "mass", PAPER_MASSES["m_platform"], low=0.0, doc="upper platform"),
+        Param("m_slider", "mass", PAPER_MASSES["m_slider"], low=0.0, doc="each driven slider"),
+        Param("m_rod", "mass", PAPER_MASSES["m_rod"], low=0.0, doc="each rod of a parallelogram"),
+        Param("rod_Ixx", "inertia", PAPER_MASSES["rod_Ixx"], low=0.0, doc="rod inertia about a transverse axis"),
+        Param("rod_Izz", "inertia", PAPER_MASSES["rod_Izz"], low=0.0, doc="rod inertia about its axis"),
+        Param("g", "acceleration", 9.81, low=0.0, doc="gravity"),
+        Param("k", "stiffness", 1.0, low=0.0, low_open=True, doc="joint stiffness of K = J^T k J"),
+        Param("rods_per_branch", "count", 2.0, low=0.0, doc="rods carrying mass in each parallelogram"),
+    )
+    extra_objectives = {
+        "base_radius": ExtraObjective(lambda p: np.asarray(p["r_b"], dtype=float), "min",
+                                      "base circumradius r_b (the footprint of the base)", "m", ("r_b",)),
+        "overall_radius": ExtraObjective(
+            lambda p: np.maximum(np.asarray(p["r_b"], float), np.asarray(p["r_a"], float)), "min",
+            "max(r_a, r_b) (the plan-view envelope)", "m", ("r_a", "r_b")),
+    }
+    multibody_check = "optdesign.mechanisms.p4s.mujoco"
     supported_indices = ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving")
 
     @classmethod
     def check_design(cls, design: Mapping[str, float]):
-        if "phi" in design and not (0.0 < design["phi"] < np.pi / 2):
-            return "phi", f"expected a rail angle between 0 and 90 deg, got {np.degrees(design['phi']):g} deg"
         if "d" in design and "r_a" in design and design["d"] >= 2 * design["r_a"]:
             return "d", f"expected d < 2 r_a (theta = asin(d / 2 r_a)), got d = {design['d']:g}, r_a = {design['r_a']:g}"
         return None
@@ -126,22 +145,41 @@ class P4S(Mechanism):
         return {"q": q, "n": n, "m": m, "s": s, "w": w, "L": L, "reachable": np.all(ok, axis=-1)}
 
     # ------------------------------------------------------------------ kinematics
+    # The public methods take the compiled path (:mod:`.compiled`) where it
+    # applies and this numpy model otherwise (OPTDESIGN_FAST=0, no numba,
+    # other design shapes); the compiled inverse kinematics and Jacobian are
+    # bitwise the numpy model's, the forward kinematics equal to 1e-12 m.
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Strokes (eq. 5) for platform positions X (..., N, 3); NaN where unreachable."""
-        return self.branch_state(X)["q"]
+        Q = compiled.inverse(self, X)
+        return self.branch_state(X)["q"] if Q is None else Q
 
     def reachable(self, X: np.ndarray) -> np.ndarray:
         """Boolean mask (..., N): every branch has a real inverse-kinematics root."""
-        return self.branch_state(X)["reachable"]
+        Q = compiled.inverse(self, X)
+        return self.branch_state(X)["reachable"] if Q is None else ~np.isnan(Q[..., 0])
 
-    def forward(self, Q: np.ndarray) -> np.ndarray:
+    def forward(self, Q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Closed-form forward kinematics: the platform centre p for strokes Q (..., N, 3).
 
         p lies at distance L from the three sphere centres
         ``s_i = c_i - rho e_i = (r_b - rho) e_i + q_i m_i``; of the two mirror
         solutions the one above the plane of the centres is the assembly mode of
         the paper (platform above the sliders).  NaN where the spheres do not meet.
+        ``out``: an optional C-contiguous float (N, 3) array to write into (one
+        design, compiled path).
         """
+        P = compiled.forward(self, Q, out)
+        if P is not None:
+            return P
+        P = self.forward_numpy(Q)
+        if out is not None:
+            out[...] = P
+            return out
+        return P
+
+    def forward_numpy(self, Q: np.ndarray) -> np.ndarray:
+        """:meth:`forward` in numpy (the reference of the compiled kernel)."""
         Q = np.asarray(Q, dtype=float)
         m = self.rail_directions()
         off = _col(self.r_b - self.rho)
@@ -176,8 +214,19 @@ class P4S(Mechanism):
 
     def jacobian(self, X: np.ndarray) -> np.ndarray:
         """J (..., N, 3, 3) with qdot = J v: rows n_i^T / (n_i^T m_i) (eq. 8)."""
+        J = compiled.jacobian(self, X)
+        if J is not None:
+            return J
         st = self.branch_state(X)
         return st["n"] / st["s"][..., None]
+
+    def global_statistics(self, requests, X):
+        """The fused compiled kernel's global indices (see :func:`.compiled.global_statistics`)."""
+        return compiled.global_statistics(self, requests, X)
+
+    def bare_kernel(self, X):
+        """The fused kernel alone, for benchmarks (see :func:`.compiled.bare_kernel`)."""
+        return compiled.bare_kernel(self, X)
 
     def rod_angular_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_omega_i (..., N, 3 branches, 3, 3): omega_i = J_omega_i v (eq. 9),
@@ -214,29 +263,29 @@ class P4S(Mechanism):
         """Symmetric mass matrix in platform coordinates, M_p (..., N, 3, 3), with
         kinetic energy T = v^T M_p v / 2 (platform, sliders, two rods per branch)."""
         st = self.branch_state(X)
-        return _platform_mass(self, st)
+        return platform_mass(self, st)
 
     def mass_matrix(self, X: np.ndarray) -> np.ndarray:
         """The M of eq. (23): actuator forces per unit platform acceleration,
         ``M = J^-T M_p`` (..., N, 3, 3), so that tau = M a + velocity + gravity terms."""
         st = self.branch_state(X)
-        Mp = _platform_mass(self, st)
+        Mp = platform_mass(self, st)
         J = st["n"] / st["s"][..., None]
-        return _solve_T(J, Mp)
+        return solve_T(J, Mp)
 
     def velocity_term(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Actuator forces from velocity products (the V^T N V of eq. 23), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
         C = _velocity_force(self, st, np.asarray(V, float))
-        return _solve_T(J, C[..., None])[..., 0]
+        return solve_T(J, C[..., None])[..., 0]
 
     def gravity_term(self, X: np.ndarray) -> np.ndarray:
         """Actuator forces that hold the mechanism against gravity (tau^G), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
         G = _gravity_force(self, st)
-        return _solve_T(J, G[..., None])[..., 0]
+        return solve_T(J, G[..., None])[..., 0]
 
     def actuator_forces(self, X: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
         """Forces the three actuators apply (..., N, 3) for platform positions X,
@@ -246,9 +295,9 @@ class P4S(Mechanism):
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
         A = np.asarray(A, dtype=float)
-        F = (np.einsum("...ij,...j->...i", _platform_mass(self, st), A)
+        F = (np.einsum("...ij,...j->...i", platform_mass(self, st), A)
              + _velocity_force(self, st, np.asarray(V, float)) + _gravity_force(self, st))
-        return _solve_T(J, F[..., None])[..., 0]
+        return solve_T(J, F[..., None])[..., 0]
 
     # ------------------------------------------------------------------ bodies
     def body_positions(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -274,7 +323,7 @@ def _p(a, k: int) -> np.ndarray:
     return a.reshape(a.shape + (1,) * k)
 
 
-def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
+def solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
     """J^-T B for stacks of 3x3 J; NaN where J is singular or not finite."""
     Jt = np.swapaxes(J, -1, -2)
     good = np.all(np.isfinite(Jt), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
@@ -307,20 +356,37 @@ def _velocity_products(st, V) -> dict[str, np.ndarray]:
             "rod_angular": -h[..., None] * np.cross(n, m) / L[..., None]}
 
 
-def _platform_mass(mech: P4S, st) -> np.ndarray:
-    n, s = st["n"], st["s"]
-    J = n / s[..., None]                                            # rows J_i
-    Jv = _rod_velocity_map(st)
-    Jw = _rod_angular_map(st)
-    mp = _p(mech.m_platform, 2)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    Irod = _p(mech.rods_per_branch * mech.rod_Ixx, 2)
-    M = mp * np.eye(3)
-    M = M + me * np.einsum("...bi,...bj->...ij", J, J)
-    M = M + rods * np.einsum("...bki,...bkj->...ij", Jv, Jv)
-    M = M + Irod * np.einsum("...bki,...bkj->...ij", Jw, Jw)
-    return M
+def mass_coefficients(mech: P4S) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(c0, alpha, beta) of the platform mass matrix in closed form,
+    ``M_p = c0 I + sum_i [alpha u_i u_i^T + beta (m_i u_i^T + u_i m_i^T)]``
+    with u_i = n_i / s_i the rows of J (eq. 8):
+    ``c0 = m_p + 3 (m_r/4 + I_r/L^2)``, ``alpha = m_s + m_r/4 + I_r/L^2``,
+    ``beta = m_r/4 - I_r/L^2`` (m_r, I_r: mass and transverse inertia of the
+    rods of one branch).  It is ``m_p I + m_s J^T J + sum Jv_i^T m_r Jv_i +
+    sum Jw_i^T I_r Jw_i`` (eq. 16-23) with |n_i| = |m_i| = 1: with
+    Jv_i = (I + m_i u_i^T)/2 and Jw_i = (skew(n_i) - (n_i x m_i) u_i^T)/L,
+    Jv^T Jv = (I + m u^T + u m^T + u u^T)/4 and
+    Jw^T Jw = (I - m u^T - u m^T + u u^T)/L^2.  The compiled kernel
+    (:mod:`.kernels`) uses the same coefficients."""
+    L = np.asarray(mech.L, dtype=float)
+    rods = np.asarray(mech.rods_per_branch, dtype=float) * np.asarray(mech.m_rod, dtype=float)
+    irod = np.asarray(mech.rods_per_branch, dtype=float) * np.asarray(mech.rod_Ixx, dtype=float)
+    mr4 = rods / 4.0
+    il2 = irod / (L * L)
+    c0 = np.asarray(mech.m_platform, dtype=float) + 3.0 * (mr4 + il2)
+    alpha = np.asarray(mech.m_slider, dtype=float) + mr4 + il2
+    beta = mr4 - il2
+    return c0, alpha, beta
+
+
+def platform_mass(mech: P4S, st) -> np.ndarray:
+    """M_p (..., N, 3, 3) from the branch state (see :func:`mass_coefficients`)."""
+    n, m, s = st["n"], st["m"], st["s"]
+    u = n / s[..., None]                                            # rows J_i
+    c0, alpha, beta = (_p(c, 2) for c in mass_coefficients(mech))
+    uu = np.einsum("...bi,...bj->...ij", u, u)
+    mu = np.einsum("...bi,...bj->...ij", m, u)
+    return c0 * np.eye(3) + alpha * uu + beta * (mu + np.swapaxes(mu, -1, -2))
 
 
 def _velocity_force(mech: P4S, st, V) -> np.ndarray:
@@ -361,7 +427,7 @@ def symbolic_model():
     """
     import casadi as ca
 
-    from ..symbolic import SymbolicModel
+    from ...symbolic import SymbolicModel
 
     names = ("r_a", "r_b", "L", "d", "phi", "m_platform", "m_slider", "m_rod", "rod_Ixx", "g", "rods_per_branch")
 
@@ -399,3 +465,6 @@ def symbolic_model():
         return V
 
     return SymbolicModel(3, 3, names, closure, kinetic, potential)
+
+
+from . import compiled  # noqa: E402  (the compiled path imports this module's helpers)

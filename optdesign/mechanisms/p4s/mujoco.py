@@ -47,7 +47,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..mechanisms.p4s import E, T, P4S
+from .model import E, T, P4S
 
 __all__ = [
     "mjcf", "P4SModel", "Trajectory", "paper_trajectory", "large_trajectory",

@@ -1,0 +1,8 @@
+"""The 3-P(4S) translational vibration table (seed paper 001): the numpy model
+(:mod:`.model`, the reference), its compiled path (:mod:`.compiled` with the
+numba kernels :mod:`.kernels`, :mod:`.ik_kernels`, :mod:`.fk_kernels`) and its
+MuJoCo check (:mod:`.mujoco`)."""
+from .model import E, PAPER_MASSES, P4S, T, Z, mass_coefficients, platform_mass, skew, solve_T, symbolic_model
+
+__all__ = ["P4S", "E", "T", "Z", "PAPER_MASSES", "skew", "mass_coefficients", "platform_mass", "solve_T",
+           "symbolic_model"]
