@@ -233,7 +233,7 @@ def test_summarize_usage_errors(tmp_path, capsys):
 
 
 def test_dask_workers_must_see_the_run_folders(tmp_path):
-    from optdesign.batch import _check_shared_folder
+    from optdesign.batch.execute import _check_shared_folder
 
     class Cluster:            # a client whose second worker is on another file system
         def run(self, fn, *args):
