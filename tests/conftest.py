@@ -23,6 +23,10 @@ DATA = Path(__file__).resolve().parent / "data"
 PAPER = CONFIGS / "p4s_paper.yaml"
 #: a tiny 3-P(4S) optimization for the batch tests (seconds per run)
 BATCH_SMALL = DATA / "batch_small.yaml"
+#: the fields of a batch row that must agree exactly between two runs of the
+#: same task, whatever the backend or the number of workers
+SAME_FIELDS = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
+               "dynamic", "stiffness", "isotropy", "evaluations")
 
 
 def load_paper_config():

@@ -17,11 +17,7 @@ from optdesign.config import parse_config
 from optdesign.optimize.pipeline import Interrupted, run_pipeline
 from optdesign.runs import RunFolder
 
-from conftest import BATCH_SMALL as SMALL
-
-#: what must agree exactly between two runs of the same task
-SAME = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
-        "dynamic", "stiffness", "isotropy", "evaluations")
+from conftest import BATCH_SMALL as SMALL, SAME_FIELDS as SAME
 
 
 def _stage_files(folder: Path) -> dict[str, str]:
