@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import copy
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,8 +32,10 @@ from optdesign.evaluate import evaluate, workspace_of
 from optdesign.mechanisms.p4s import E, P4S, Z
 from optdesign.workspace import Workspace
 
-ROOT = Path(__file__).resolve().parents[1]
-CFG = load_config(ROOT / "configs" / "p4s_paper.yaml")
+from cli_helpers import run_cli_in
+from conftest import load_paper_config, paper_data
+
+CFG = load_paper_config()
 ALL_INDICES = {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"},
                "isotropy": {"kind": "isotropy"}, "isotropy2": {"kind": "isotropy", "convention": "two_norm"},
                "stiff_sqrt": {"kind": "stiffness", "convention": "sqrt_lambda_min_K"},
@@ -43,7 +44,7 @@ ALL_INDICES = {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"
 
 
 def _config_with_all_indices():
-    raw = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
+    raw = paper_data()
     raw["indices"] = copy.deepcopy(ALL_INDICES)
     raw.pop("reference", None)
     raw["optimizer"].pop("weights", None)
@@ -201,35 +202,29 @@ def test_problem_flags_designs_at_the_corner_of_the_bounds():
 
 
 # ----------------------------------------------------------------------------- commands
-def _run(tmp: Path, argv):
-    from cli_helpers import run_cli_in
-
-    return run_cli_in(tmp, argv)
-
-
-def test_commands_at_the_edge_of_reachability(tmp_path):
+def test_commands_at_the_edge_of_reachability(tmp_path, write_yaml):
     """A workspace that runs past the reach of the designs (z up to 0.9 m) and
     poses exactly at a singularity: no warning, no traceback."""
-    raw = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
+    raw = paper_data()
     raw["workspace"] = {"type": "box", "axes": {"x": [-0.3, 0.3], "y": 0.0, "z": [0.3, 0.9]},
                         "sampling": "grid", "points_per_axis": 13}
-    (tmp_path / "edge.yaml").write_text(yaml.safe_dump(raw))
-    rc, out, err = _run(tmp_path, ["evaluate", "edge.yaml", "--json"])
+    write_yaml(raw, "edge.yaml")
+    rc, out, err = run_cli_in(tmp_path, ["evaluate", "edge.yaml", "--json"])
     assert rc == 0 and err == ""
     import json
 
     res = json.loads(out)
     for name, rec in res["designs"].items():
         assert 0 < rec["reachable_fraction"] < 1
-    rc, out, err = _run(tmp_path, ["atlas", "edge.yaml", "--design", "before", "--no-plots", "--resolution", "9"])
+    rc, out, err = run_cli_in(tmp_path, ["atlas", "edge.yaml", "--design", "before", "--no-plots", "--resolution", "9"])
     assert rc == 0 and err == ""
     mech = build(CFG, "before")
     X = singular_poses(mech, 0, [0.3])[0]
-    rc, out, err = _run(tmp_path, ["ik", "edge.yaml", "--design", "before", *map(repr, X.tolist())])
+    rc, out, err = run_cli_in(tmp_path, ["ik", "edge.yaml", "--design", "before", *map(repr, X.tolist())])
     assert rc == 0 and err == "" and "l1" in out
-    rc, out, err = _run(tmp_path, ["ik", "edge.yaml", "--design", "before", "0", "0", "5"])
+    rc, out, err = run_cli_in(tmp_path, ["ik", "edge.yaml", "--design", "before", "0", "0", "5"])
     assert rc == 1 and err == "" and "unreachable" in out
-    rc, out, err = _run(tmp_path, ["fk", "edge.yaml", "--design", "before", "0", "0", "5"])
+    rc, out, err = run_cli_in(tmp_path, ["fk", "edge.yaml", "--design", "before", "0", "0", "5"])
     assert rc in (0, 1) and err == ""
 
 

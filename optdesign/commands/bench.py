@@ -251,8 +251,8 @@ def reproduce_time(min_points: int, pareto: bool = True) -> dict:
 
 
 def run(args) -> int:
-    from ._common import open_config, table
-    from ..cli import UsageError
+    from ._common import UsageError, open_config
+    from ..tables import table
 
     if args.points < 1 or args.designs < 1 or args.loop_points < 1 or args.fk_poses < 1 or args.repeat < 1:
         raise UsageError("bench: --points, --designs, --loop-points, --fk-poses and --repeat must be positive")

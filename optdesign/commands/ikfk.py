@@ -21,8 +21,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ._common import open_config
-    from ..cli import UsageError
+    from ._common import UsageError, open_config
 
     cfg = open_config(args.config)
     design = args.design or ("initial" if "initial" in cfg.designs else next(iter(cfg.designs)))

@@ -32,7 +32,7 @@ def register(sub):
 
 
 def _check_args(args):
-    from ..cli import UsageError
+    from ._common import UsageError
 
     for name in ("duration", "large_duration"):
         v = getattr(args, name)
@@ -52,9 +52,9 @@ def run(args) -> int:
 
     import numpy as np
 
-    from ..cli import UsageError
     from ..io import atomic_write_bytes, atomic_write_json
-    from ._common import design_names, fmt, open_config, table
+    from ._common import UsageError, design_names, open_config
+    from ..tables import fmt, table
 
     _check_args(args)
     cfg = open_config(args.config)
