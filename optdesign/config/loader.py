@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 import yaml
 
-from .reader import UNITS, ConfigError, Reader, join, show, tname
+from .reader import UNITS, ConfigError, Reader, show
 from .schema import Config, DesignVariable, IndexSpec
 from .sections import optimizer_section, workspace_section
 

@@ -55,8 +55,6 @@ Everything is batched over poses and (broadcast) designs.
 """
 from __future__ import annotations
 
-from typing import Mapping
-
 import numpy as np
 
 from . import register

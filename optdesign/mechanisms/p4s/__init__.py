@@ -2,7 +2,10 @@
 (:mod:`.model`, the reference), its compiled path (:mod:`.compiled` with the
 numba kernels :mod:`.kernels`, :mod:`.ik_kernels`, :mod:`.fk_kernels`) and its
 MuJoCo check (:mod:`.mujoco`)."""
-from .model import E, PAPER_MASSES, P4S, T, Z, mass_coefficients, platform_mass, skew, solve_T, symbolic_model
+from .dynamics import mass_coefficients, platform_mass, solve_T
+from .geometry import E, T, Z, skew
+from .model import PAPER_MASSES, P4S
+from .symbolic import symbolic_model
 
 __all__ = ["P4S", "E", "T", "Z", "PAPER_MASSES", "skew", "mass_coefficients", "platform_mass", "solve_T",
            "symbolic_model"]

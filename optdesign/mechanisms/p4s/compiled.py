@@ -32,7 +32,7 @@ import numpy as np
 
 from ...fast import KernelModule, enabled
 from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singular_values
-from .model import mass_coefficients, platform_mass, solve_T
+from .dynamics import mass_coefficients, platform_mass, solve_T
 
 __all__ = ["LOCAL", "FK", "IK", "VALUE_NAMES", "SUPPORTED", "design_constants", "p4s_local", "p4s_summary",
            "global_statistics", "plan", "forward", "inverse", "jacobian"]

@@ -14,7 +14,7 @@ from numba import njit, prange
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
-from .model import E as _E
+from .geometry import E as _E
 
 # e_i components (x, y; the z components are 0); e_0 = (1, 0, 0) exactly, which
 # the kernel uses to drop the terms a0 * 0 and a0 * 1

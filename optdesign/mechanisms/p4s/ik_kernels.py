@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit, prange
 
 from ...fast._jit import NJIT as _NJIT
-from .model import E as _E
+from .geometry import E as _E
 
 E00, E01, E02 = float(_E[0, 0]), float(_E[0, 1]), float(_E[0, 2])
 E10, E11, E12 = float(_E[1, 0]), float(_E[1, 1]), float(_E[1, 2])

@@ -42,7 +42,7 @@ from numba import njit, prange
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
-from .model import E as _E
+from .geometry import E as _E
 
 #: points per task: the unit of parallel work and of the partial reductions
 CHUNK = 512

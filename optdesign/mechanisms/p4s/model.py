@@ -29,14 +29,9 @@ import numpy as np
 from .. import register
 from ..base import ExtraObjective, Mechanism
 from ..params import Param
-
-_GAMMA = np.array([0.0, 2.0 * np.pi / 3.0, 4.0 * np.pi / 3.0])
-#: e_i, the unit vectors from the centre to the branches (3 branches x 3 components)
-E = np.stack([np.cos(_GAMMA), np.sin(_GAMMA), np.zeros(3)], axis=-1)
-E[np.abs(E) < 1e-15] = 0.0
-Z = np.array([0.0, 0.0, 1.0])
-#: t_i = z x e_i, the direction of the short sides of the parallelogram
-T = np.cross(Z, E)
+from .dynamics import (gravity_force, mass_coefficients, platform_mass, rod_angular_map, rod_velocity_map,  # noqa: F401
+                       solve_T, velocity_force, velocity_products)
+from .geometry import E, T, Z, _col, _p, skew  # noqa: F401
 
 #: the paper's mass data (section 2.4)
 PAPER_MASSES = {
@@ -46,23 +41,6 @@ PAPER_MASSES = {
     "rod_Ixx": 0.0223,    # kg m^2, rod inertia about a transverse axis through its centre
     "rod_Izz": 1.276e-4,  # kg m^2, rod inertia about its own axis (no spin: does not enter)
 }
-
-
-def _col(a: np.ndarray) -> np.ndarray:
-    """Parameter (design shape, which already spans the pose axis) -> shape
-    (..., 1, 1) to broadcast over the (branch, component) axes."""
-    return np.asarray(a, dtype=float)[..., None, None]
-
-
-def skew(n: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrices of vectors (..., 3) -> (..., 3, 3): skew(a) b = a x b."""
-    z = np.zeros_like(n[..., 0])
-    return np.stack([
-        np.stack([z, -n[..., 2], n[..., 1]], -1),
-        np.stack([n[..., 2], z, -n[..., 0]], -1),
-        np.stack([-n[..., 1], n[..., 0], z], -1),
-    ], -2)
-
 
 @register
 class P4S(Mechanism):
@@ -232,13 +210,13 @@ class P4S(Mechanism):
         """J_omega_i (..., N, 3 branches, 3, 3): omega_i = J_omega_i v (eq. 9),
         ``(skew(n_i) - (n_i x m_i) n_i^T / (n_i.m_i)) / L``."""
         st = self.branch_state(X)
-        return _rod_angular_map(st)
+        return rod_angular_map(st)
 
     def rod_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_v_i (..., N, 3 branches, 3, 3): rod-centre velocity = J_v_i v (eq. 11),
         ``(I + m_i n_i^T / (n_i.m_i)) / 2``."""
         st = self.branch_state(X)
-        return _rod_velocity_map(st)
+        return rod_velocity_map(st)
 
     def velocity_product_terms(self, X: np.ndarray, V: np.ndarray) -> dict[str, np.ndarray]:
         """The velocity-product parts of the acceleration maps (eq. 13-15).
@@ -250,13 +228,13 @@ class P4S(Mechanism):
         and -h_i (n_i x m_i) / L.
         """
         st = self.branch_state(X)
-        return _velocity_products(st, np.asarray(V, dtype=float))
+        return velocity_products(st, np.asarray(V, dtype=float))
 
     def accelerations(self, X, V, A) -> np.ndarray:
         """Stroke accelerations qdd = J a + v^T H v (eq. 13), shape (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        return np.einsum("...ij,...j->...i", J, A) + _velocity_products(st, np.asarray(V, float))["qdd"]
+        return np.einsum("...ij,...j->...i", J, A) + velocity_products(st, np.asarray(V, float))["qdd"]
 
     # ------------------------------------------------------------------ dynamics
     def platform_mass_matrix(self, X: np.ndarray) -> np.ndarray:
@@ -277,14 +255,14 @@ class P4S(Mechanism):
         """Actuator forces from velocity products (the V^T N V of eq. 23), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        C = _velocity_force(self, st, np.asarray(V, float))
+        C = velocity_force(self, st, np.asarray(V, float))
         return solve_T(J, C[..., None])[..., 0]
 
     def gravity_term(self, X: np.ndarray) -> np.ndarray:
         """Actuator forces that hold the mechanism against gravity (tau^G), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        G = _gravity_force(self, st)
+        G = gravity_force(self, st)
         return solve_T(J, G[..., None])[..., 0]
 
     def actuator_forces(self, X: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
@@ -296,7 +274,7 @@ class P4S(Mechanism):
         J = st["n"] / st["s"][..., None]
         A = np.asarray(A, dtype=float)
         F = (np.einsum("...ij,...j->...i", platform_mass(self, st), A)
-             + _velocity_force(self, st, np.asarray(V, float)) + _gravity_force(self, st))
+             + velocity_force(self, st, np.asarray(V, float)) + gravity_force(self, st))
         return solve_T(J, F[..., None])[..., 0]
 
     # ------------------------------------------------------------------ bodies
@@ -314,157 +292,6 @@ class P4S(Mechanism):
         rods = np.stack([mid + half, mid - half], axis=-2)
         return {"platform": np.broadcast_to(X, dpt.shape[:-2] + (3,)), "sliders": c, "rods": rods,
                 "rod_axes": st["n"], "c": c, "d": dpt}
-
-
-# ---------------------------------------------------------------------- helpers
-def _p(a, k: int) -> np.ndarray:
-    """A (broadcast) design parameter with k trailing axes added."""
-    a = np.asarray(a, dtype=float)
-    return a.reshape(a.shape + (1,) * k)
-
-
-def solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """J^-T B for stacks of 3x3 J; NaN where J is singular or not finite."""
-    Jt = np.swapaxes(J, -1, -2)
-    good = np.all(np.isfinite(Jt), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
-    Js = np.where(good[..., None, None], Jt, np.eye(3))
-    Bs = np.where(good[..., None, None], B, 0.0)
-    det = np.linalg.det(Js)
-    good &= np.abs(det) > 0
-    Js = np.where(good[..., None, None], Js, np.eye(3))
-    out = np.linalg.solve(Js, Bs)
-    return np.where(good[..., None, None], out, np.nan)
-
-
-def _rod_angular_map(st) -> np.ndarray:
-    n, m, s, L = st["n"], st["m"], st["s"], st["L"]
-    nxm = np.cross(n, m)
-    return (skew(n) - nxm[..., :, None] * n[..., None, :] / s[..., None, None]) / L[..., None, None]
-
-
-def _rod_velocity_map(st) -> np.ndarray:
-    n, m, s = st["n"], st["m"], st["s"]
-    return 0.5 * (np.eye(3) + m[..., :, None] * n[..., None, :] / s[..., None, None])
-
-
-def _velocity_products(st, V) -> dict[str, np.ndarray]:
-    n, m, s, L = st["n"], st["m"], st["s"], st["L"]
-    qd = np.sum(n * V[..., None, :], axis=-1) / s                 # (.., N, 3)
-    rel = V[..., None, :] - qd[..., None] * m                       # L * ndot
-    h = np.sum(rel * rel, axis=-1) / (L * s)
-    return {"qdd": h, "rod_center": 0.5 * h[..., None] * m,
-            "rod_angular": -h[..., None] * np.cross(n, m) / L[..., None]}
-
-
-def mass_coefficients(mech: P4S) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(c0, alpha, beta) of the platform mass matrix in closed form,
-    ``M_p = c0 I + sum_i [alpha u_i u_i^T + beta (m_i u_i^T + u_i m_i^T)]``
-    with u_i = n_i / s_i the rows of J (eq. 8):
-    ``c0 = m_p + 3 (m_r/4 + I_r/L^2)``, ``alpha = m_s + m_r/4 + I_r/L^2``,
-    ``beta = m_r/4 - I_r/L^2`` (m_r, I_r: mass and transverse inertia of the
-    rods of one branch).  It is ``m_p I + m_s J^T J + sum Jv_i^T m_r Jv_i +
-    sum Jw_i^T I_r Jw_i`` (eq. 16-23) with |n_i| = |m_i| = 1: with
-    Jv_i = (I + m_i u_i^T)/2 and Jw_i = (skew(n_i) - (n_i x m_i) u_i^T)/L,
-    Jv^T Jv = (I + m u^T + u m^T + u u^T)/4 and
-    Jw^T Jw = (I - m u^T - u m^T + u u^T)/L^2.  The compiled kernel
-    (:mod:`.kernels`) uses the same coefficients."""
-    L = np.asarray(mech.L, dtype=float)
-    rods = np.asarray(mech.rods_per_branch, dtype=float) * np.asarray(mech.m_rod, dtype=float)
-    irod = np.asarray(mech.rods_per_branch, dtype=float) * np.asarray(mech.rod_Ixx, dtype=float)
-    mr4 = rods / 4.0
-    il2 = irod / (L * L)
-    c0 = np.asarray(mech.m_platform, dtype=float) + 3.0 * (mr4 + il2)
-    alpha = np.asarray(mech.m_slider, dtype=float) + mr4 + il2
-    beta = mr4 - il2
-    return c0, alpha, beta
-
-
-def platform_mass(mech: P4S, st) -> np.ndarray:
-    """M_p (..., N, 3, 3) from the branch state (see :func:`mass_coefficients`)."""
-    n, m, s = st["n"], st["m"], st["s"]
-    u = n / s[..., None]                                            # rows J_i
-    c0, alpha, beta = (_p(c, 2) for c in mass_coefficients(mech))
-    uu = np.einsum("...bi,...bj->...ij", u, u)
-    mu = np.einsum("...bi,...bj->...ij", m, u)
-    return c0 * np.eye(3) + alpha * uu + beta * (mu + np.swapaxes(mu, -1, -2))
-
-
-def _velocity_force(mech: P4S, st, V) -> np.ndarray:
-    n, s = st["n"], st["s"]
-    J = n / s[..., None]
-    vp = _velocity_products(st, V)
-    Jv = _rod_velocity_map(st)
-    Jw = _rod_angular_map(st)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    Irod = _p(mech.rods_per_branch * mech.rod_Ixx, 2)
-    C = np.sum(me * J * vp["qdd"][..., None], axis=-2)
-    C = C + np.sum(rods * np.einsum("...bki,...bk->...bi", Jv, vp["rod_center"]), axis=-2)
-    C = C + np.sum(Irod * np.einsum("...bki,...bk->...bi", Jw, vp["rod_angular"]), axis=-2)
-    return C
-
-
-def _gravity_force(mech: P4S, st) -> np.ndarray:
-    n, m, s = st["n"], st["m"], st["s"]
-    J = n / s[..., None]
-    Jv = _rod_velocity_map(st)
-    g = _p(mech.g, 2)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    G = _p(mech.m_platform * mech.g, 1) * Z
-    G = G + np.sum(g * me * J * m[..., 2:3], axis=-2)
-    G = G + np.sum(g * rods * Jv[..., 2, :], axis=-2)
-    return G
-
-
-# ---------------------------------------------------------------------- CasADi model
-def symbolic_model():
-    """The 3-P(4S) as closure equations and body energies for the CasADi route
-    (optdesign.symbolic).  Independent of the hand-derived eq. 8-23 above: the
-    energies are written from each body's own velocity (platform, three sliders,
-    two rods per branch translating with their centres and rotating with
-    omega = n x ndot), and every derivative comes from automatic differentiation.
-    """
-    import casadi as ca
-
-    from ...symbolic import SymbolicModel
-
-    names = ("r_a", "r_b", "L", "d", "phi", "m_platform", "m_slider", "m_rod", "rod_Ixx", "g", "rods_per_branch")
-
-    def geometry(x, q, p):
-        rho = ca.sqrt(p["r_a"] ** 2 - p["d"] ** 2 / 4)
-        out = []
-        for i in range(3):
-            e = ca.DM(E[i])
-            m = -ca.cos(p["phi"]) * e + ca.sin(p["phi"]) * ca.DM(Z)
-            c = p["r_b"] * e + q[i] * m          # slider (bottom midpoint)
-            dpt = x + rho * e                    # top midpoint on the platform
-            out.append((c, dpt, m))
-        return out
-
-    def closure(x, q, p):
-        return ca.vertcat(*[ca.sumsqr(dpt - c) - p["L"] ** 2 for c, dpt, _ in geometry(x, q, p)])
-
-    def kinetic(x, q, xd, qd, p):
-        T = 0.5 * p["m_platform"] * ca.sumsqr(xd)
-        for i, (c, dpt, m) in enumerate(geometry(x, q, p)):
-            cd = qd[i] * m                        # slider velocity
-            T += 0.5 * p["m_slider"] * ca.sumsqr(cd)
-            vmid = 0.5 * (cd + xd)                # rod centre velocity (both rods)
-            n = (dpt - c) / p["L"]
-            ndot = (xd - cd) / p["L"]
-            omega = ca.cross(n, ndot)
-            T += p["rods_per_branch"] * (0.5 * p["m_rod"] * ca.sumsqr(vmid) + 0.5 * p["rod_Ixx"] * ca.sumsqr(omega))
-        return T
-
-    def potential(x, q, p):
-        V = p["m_platform"] * p["g"] * x[2]
-        for i, (c, dpt, m) in enumerate(geometry(x, q, p)):
-            V += p["m_slider"] * p["g"] * c[2]
-            V += p["rods_per_branch"] * p["m_rod"] * p["g"] * 0.5 * (c[2] + dpt[2])
-        return V
-
-    return SymbolicModel(3, 3, names, closure, kinetic, potential)
 
 
 from . import compiled  # noqa: E402  (the compiled path imports this module's helpers)
