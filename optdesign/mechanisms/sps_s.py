@@ -31,7 +31,7 @@ from typing import Mapping
 import numpy as np
 
 from . import register
-from .base import Mechanism
+from .base import ExtraObjective, Mechanism
 from .params import Param
 
 _G = np.radians([0.0, 120.0, 240.0])
@@ -88,6 +88,13 @@ class SpsS(Mechanism):
         Param("k", "stiffness", 1000.0, low=0.0, low_open=True, doc="leg stiffness"),
         Param("delta", "angle", 0.0, doc="turn of the platform triangle relative to the base one"),
     )
+    extra_objectives = {
+        "base_radius": ExtraObjective(lambda p: np.asarray(p["r_B"], dtype=float), "min",
+                                      "base joint circle radius r_B (the footprint of the base)", "m", ("r_B",)),
+        "overall_radius": ExtraObjective(
+            lambda p: np.maximum(np.asarray(p["r_B"], float), np.asarray(p["r_b"], float)), "min",
+            "max(r_b, r_B) (the plan-view envelope)", "m", ("r_b", "r_B")),
+    }
     supported_indices = ("axis_stiffness", "stiffness", "dexterity", "isotropy", "driving", "manipulability")
     angular_axes = ("psi", "theta", "phi")
 
