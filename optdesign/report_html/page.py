@@ -73,7 +73,7 @@ _ERRORS_TAIL = """
     document.body.setAttribute('data-errors', String(errs.length));
     if (errs.length) {
       var box = document.getElementById('report-errors');
-      box.textContent = 'Some figures could not be drawn:\\n' + errs.join('\\n');
+      box.textContent = 'A script failed while drawing this page; some figures may be missing:\\n' + errs.join('\\n');
       box.style.display = 'block';
     }
   }
