@@ -279,7 +279,8 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
         if not dv.free or k not in front.designs:
             continue
         lo, hi = dv.display(dv.bounds[0]), dv.display(dv.bounds[1])
-        dims.append(dict(label=_var_label(run, k), values=dv.display(front.designs[k]), range=[lo, hi]))
+        dims.append(dict(label=_var_label(run, k), values=dv.display(front.designs[k]), range=[lo, hi],
+                         tickformat=".4~g"))
     vals = _front_values(run, front)
     norm = run.results.get("normalization", {})
     for o in front.objectives:
@@ -289,16 +290,15 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
         if hi <= lo and isinstance(nm, dict) and all(isinstance(nm.get(x), (int, float)) for x in ("min", "max")):
             # one design (or all alike): the index's range over the bounds places it
             lo, hi = min(lo, float(nm["min"])), max(hi, float(nm["max"]))
-        d = dict(label=_obj_label(run, o), values=v)
+        d = dict(label=_obj_label(run, o), values=v, tickformat=".4~g")
         if hi > lo:
-            pad = 0.03 * (hi - lo)
-            d["range"] = [lo - pad, hi + pad]
+            d["range"] = [lo, hi]
         dims.append(d)
     color_by = next(iter(front.objectives), None)
     if color_by and front.size > 1:
         line = dict(color=vals[color_by], colorscale="Viridis", showscale=True,
                     colorbar=dict(title=dict(text=_obj_label(run, color_by, short=True), side="right"),
-                                  thickness=14, x=1.04))
+                                  thickness=14, x=1.02))
     else:
         line = dict(color=COLORS[0])
     fig = go.Figure(go.Parcoords(
@@ -310,7 +310,7 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
                       title=dict(text=f"{esc(front.name)}: the front's designs (left, config units; axes span the bounds) "
                                       f"and objectives (right){one}", x=0.01,
                                  font=dict(size=13)),
-                      margin=dict(t=150, l=70, r=110 if front.size > 1 else 70, b=40))
+                      margin=dict(t=150, l=70, r=150 if front.size > 1 else 70, b=40))
     return fig
 
 

@@ -55,6 +55,11 @@ def _normalization_text(run: RunData) -> str:
         if isinstance(d, dict) and "objective" in d:
             lines.append(f" The {esc(n)} design (config) scores {objective_text(d['objective'])}.")
     lines.append("</p>")
+    scores = [r.get("objective")] + [d.get("objective") for d in r["designs"].values() if isinstance(d, dict)]
+    if any(isinstance(x, (int, float)) and x < -1e-9 for x in scores):
+        lines.append("<p class=note><b>f below 0:</b> a design beats the single-objective stages' best value of an "
+                     "index, so those stages did not find the index's true extreme over the bounds (a short run?); "
+                     "the scaling above is then only approximate.</p>")
     if cfg.reference:
         ref_f = cfg.reference.get("after", {}).get("objective") if isinstance(cfg.reference.get("after"), dict) else None
         extra = []
