@@ -258,6 +258,25 @@ def test_report_command_and_folders_that_are_not_finished_runs(noref_run, tmp_pa
     assert not (running / "report.html").exists()
 
 
+@pytest.mark.parametrize("damage", ["designs", "normalization", "optimum", "json", "config"])
+def test_damaged_run_folder_is_one_line(noref_run, tmp_path, damage):
+    folder = tmp_path / "run"
+    shutil.copytree(noref_run, folder)
+    p = folder / "results.json"
+    r = json.loads(p.read_text())
+    if damage == "designs":
+        r["designs"]["before"]["global_indices"] = [1, 2]
+    elif damage == "normalization":
+        r["normalization"]["dynamic"]["min"] = "small"
+    elif damage == "optimum":
+        r["optimum"]["r_a"] = None
+    p.write_text("{" if damage == "json" else json.dumps(r))
+    if damage == "config":
+        (folder / "config.yaml").write_text("mechanism: p4s\nworkspace: [\n")
+    rc, out, err = run_cli_in(tmp_path, ["report", str(folder)])
+    assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+
+
 def test_report_never_writes_through_a_symlink(noref_run, tmp_path):
     from optdesign.report_html import write_report_html
 

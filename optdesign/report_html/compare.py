@@ -12,6 +12,7 @@ import plotly.graph_objects as go
 from ..io import atomic_write_text
 from .figures import COLORS, MARKS, TEMPLATE, _front_values, design_points, esc, fmt, hover_lines
 from .page import Page
+from ..runs import RunFolderError
 from .rundata import RunData, load_run
 from .tables import html_table, objective_text
 from .units import DIMENSIONLESS, index_label, index_unit, label, objective_unit, variable_unit
@@ -192,5 +193,9 @@ def write_compare_html(folders, out: str | os.PathLike) -> Path:
     file ``out`` (nothing else is written) and return its resolved path."""
     runs = [load_run(f) for f in folders]
     target = Path(out).resolve()
-    atomic_write_text(target, build_compare(runs))
+    try:
+        text = build_compare(runs)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # a hand-edited or damaged folder
+        raise RunFolderError(f"unexpected content in the runs' files ({type(exc).__name__}: {exc})") from None
+    atomic_write_text(target, text)
     return target

@@ -165,7 +165,10 @@ def write_report_html(folder_path: str | os.PathLike, atlas_resolution: int = DE
     """Write ``report.html`` into a finished run folder and return its path.
     Raises RunFolderError (one line) for a folder that is not a finished run."""
     run = load_run(folder_path)
-    text = build_report(run, atlas_resolution)
+    try:
+        text = build_report(run, atlas_resolution)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # a hand-edited or damaged folder
+        raise RunFolderError(f"{run.path}: unexpected content in the run's files ({type(exc).__name__}: {exc})") from None
     out = _target(run.path)
     atomic_write_text(out, text)
     return out
