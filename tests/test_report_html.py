@@ -42,6 +42,24 @@ def noref_run(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def two_objective_run(tmp_path_factory):
+    """A small finished run with two indices (its fronts are two-objective)."""
+    from optdesign.config import load_config
+    from optdesign.optimize.runner import start_run
+
+    d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+    d.pop("reference")
+    d["name"] = "two_objectives"
+    d["indices"] = {"dynamic": {}, "stiffness": {}}
+    d["optimizer"]["pareto"]["algorithms"] = ["nsga2"]
+    base = tmp_path_factory.mktemp("two")
+    cfg_path = base / "two_objectives.yaml"
+    cfg_path.write_text(yaml.safe_dump(d, sort_keys=False))
+    res = start_run(load_config(cfg_path), out=base / "runs", name="two_objectives", exact_name=True, jobs=1)
+    return res.folder.path
+
+
+@pytest.fixture(scope="module")
 def noref_report(noref_run):
     from optdesign.report_html import write_report_html
 
@@ -322,16 +340,23 @@ def _chromium(args: list[str], profile: Path) -> subprocess.CompletedProcess:
     return subprocess.run([CHROMIUM] + flags + args, capture_output=True, text=True, timeout=120)
 
 
-def test_report_renders_in_headless_chromium(noref_report, tmp_path):
+@pytest.mark.parametrize("which", ["four objectives", "two objectives"])
+def test_report_renders_in_headless_chromium(which, request, tmp_path):
     if CHROMIUM is None:
         pytest.skip("chromium not found: the browser test of report.html needs it; install it with "
                     "`apt-get install -y chromium` (Debian; .ci/run does this)")
+    from optdesign.report_html import write_report_html
+
+    if which == "four objectives":
+        noref_report = request.getfixturevalue("noref_report")
+    else:  # a two-objective front is one scatter, not a one-panel matrix (which plotly.js cannot draw)
+        noref_report = write_report_html(request.getfixturevalue("two_objective_run"))
     shot = tmp_path / "report.png"
     p = _chromium(["--window-size=1280,2000", f"--screenshot={shot}", "--dump-dom", noref_report.as_uri()],
                   tmp_path / "profile")
     dom = p.stdout
     expected = noref_report.read_text().count('class="plotly-graph-div"')
-    assert expected >= 7
+    assert expected >= 6
     # after the scripts ran: every figure became a plot with its SVG layers, and no script error
     assert dom.count('class="plotly-graph-div js-plotly-plot"') == expected, p.stderr[-2000:]
     assert f'data-figures-drawn="{expected}"' in dom

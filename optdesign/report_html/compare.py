@@ -10,12 +10,13 @@ import numpy as np
 import plotly.graph_objects as go
 
 from ..io import atomic_write_text
-from .figures import COLORS, MARKS, TEMPLATE, _front_values, design_points, esc, fmt, hover_lines
+from .figures import (COLORS, MARKS, TEMPLATE, _front_values, design_points, esc, fmt, hover_lines, matrix_trace,
+                      style_matrix)
 from .page import Page
 from ..runs import RunFolderError
 from .rundata import RunData, load_run
 from .tables import html_table, objective_text
-from .units import DIMENSIONLESS, index_label, index_unit, label, objective_unit, variable_unit
+from .units import DIMENSIONLESS, index_label, index_unit, objective_unit, variable_unit
 
 __all__ = ["build_compare", "write_compare_html"]
 
@@ -95,32 +96,29 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
     fig = go.Figure()
     r0 = fronts[0][1]
     dims_label = {o: esc(index_label(r0.cfg, o)) for o in common}
+    dims = [dims_label[o] for o in common]
     for j, (lab, r, f) in enumerate(fronts):
         vals = _front_values(r, f)
         text = [hover_lines(r, f.designs, vals, i, f"{lab} · {f.name} design {i + 1}") for i in range(f.size)]
         big = f.size <= 3
-        fig.add_trace(go.Splom(dimensions=[dict(label=dims_label[o], values=vals[o]) for o in common], text=text,
-                               hovertemplate="%{text}<extra></extra>", name=esc(f"{lab} · {f.name} ({f.size})"),
-                               marker=dict(size=14 if big else 6, color=COLORS[j % len(COLORS)], opacity=0.75,
-                                           line=dict(width=1 if big else 0.3, color="#333")),
-                               showupperhalf=False, diagonal_visible=False))
+        fig.add_trace(matrix_trace(dims, [vals[o] for o in common], text=text,
+                                   hovertemplate="%{text}<extra></extra>", name=esc(f"{lab} · {f.name} ({f.size})"),
+                                   marker=dict(size=14 if big else 6, color=COLORS[j % len(COLORS)], opacity=0.75,
+                                               line=dict(width=1 if big else 0.3, color="#333"))))
     for j, (lab, r) in enumerate(zip(labels, runs)):
         name, params, ov = design_points(r, common)[0]
         if any(ov.get(o) is None or not np.isfinite(ov[o]) for o in common):
             continue
         t = hover_lines(r, {k: np.array([v]) for k, v in params.items()}, {k: np.array([v]) for k, v in ov.items()},
                         0, f"{lab}: {name}")
-        fig.add_trace(go.Splom(dimensions=[dict(label=dims_label[o], values=[ov[o]]) for o in common], text=[t],
-                               hovertemplate="%{text}<extra></extra>", name=esc(f"{lab}: weighted-sum optimum"),
-                               marker=dict(size=11, symbol=MARKS[j % len(MARKS)], color="#111",
-                                           line=dict(width=1, color="white")),
-                               showupperhalf=False, diagonal_visible=False))
+        fig.add_trace(matrix_trace(dims, [[ov[o]] for o in common], text=[t], hovertemplate="%{text}<extra></extra>",
+                                   name=esc(f"{lab}: weighted-sum optimum"),
+                                   marker=dict(size=11, symbol=MARKS[j % len(MARKS)], color="#111",
+                                               line=dict(width=1, color="white"))))
     n = len(common)
-    for i in range(1, n + 1):
-        ax = dict(showline=False, mirror=False, zeroline=False, gridcolor="white", automargin=True)
-        fig.update_layout({f"xaxis{i if i > 1 else ''}": ax, f"yaxis{i if i > 1 else ''}": ax})
+    style_matrix(fig, dims)
     rows = -(-len(fig.data) // 3)
-    fig.update_layout(template=TEMPLATE, plot_bgcolor="#eef1f5", height=max(440, 230 * (n - 1) + 160) + 22 * rows,
+    fig.update_layout(template=TEMPLATE, height=max(440, 230 * (n - 1) + 160) + 22 * rows,
                       dragmode="select", hovermode="closest",
                       title=dict(text="Pareto fronts of the runs overlaid (objectives in their own sense)", x=0.01),
                       legend=dict(orientation="h", yref="container", y=0.005, yanchor="bottom", x=0, xanchor="left",

@@ -14,10 +14,10 @@ from plotly.subplots import make_subplots
 
 from .atlas import AtlasMap
 from .rundata import Front, RunData
-from .units import DIMENSIONLESS, index_label, label, objective_unit, pose_display, variable_unit
+from .units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
 
-__all__ = ["TEMPLATE", "fmt", "convergence_figures", "front_splom", "front_parcoords", "atlas_figures",
-           "design_points", "hover_lines", "objective_sense"]
+__all__ = ["TEMPLATE", "fmt", "matrix_trace", "style_matrix", "convergence_figures", "front_splom",
+           "front_parcoords", "atlas_figures", "design_points", "hover_lines", "objective_sense"]
 
 #: a light template of our own (plotly's built-in ones add kilobytes to every figure)
 TEMPLATE = go.layout.Template(layout=dict(
@@ -226,6 +226,28 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
 
 
 # --------------------------------------------------------------------------- fronts
+def matrix_trace(labels: list[str], columns: list, **kw):
+    """A scatter matrix (lower half) of ``columns``; for two columns, one plain
+    scatter (plotly.js cannot draw a one-panel lower-half matrix)."""
+    if len(columns) == 2:
+        return go.Scatter(x=columns[0], y=columns[1], mode="markers", **kw)
+    return go.Splom(dimensions=[dict(label=lab, values=c) for lab, c in zip(labels, columns)],
+                    showupperhalf=False, diagonal_visible=False, **kw)
+
+
+def style_matrix(fig: go.Figure, labels: list[str]) -> None:
+    """Axes of a scatter matrix: plain (no mirrored frame) on shaded panels."""
+    n = len(labels)
+    if n == 2:
+        fig.update_xaxes(title_text=labels[0])
+        fig.update_yaxes(title_text=labels[1])
+    else:
+        for i in range(1, n + 1):
+            ax = dict(showline=False, mirror=False, zeroline=False, gridcolor="white", automargin=True)
+            fig.update_layout({f"xaxis{i if i > 1 else ''}": ax, f"yaxis{i if i > 1 else ''}": ax})
+    fig.update_layout(plot_bgcolor="#eef1f5")
+
+
 def front_title(front: Front) -> str:
     if front.size == 1:
         return (f"{esc(front.name)}: the front collapsed to ONE design (the same design is best in every "
@@ -241,27 +263,22 @@ def front_splom(run: RunData, front: Front) -> go.Figure:
     vals = _front_values(run, front)
     text = [hover_lines(run, front.designs, vals, i, f"{front.name} design {i + 1}") for i in range(front.size)]
     big = front.size <= 3
-    dims = [dict(label=_obj_label(run, o, short=True), values=vals[o]) for o in objs]
+    labels = [_obj_label(run, o, short=True) for o in objs]
     fig = go.Figure()
-    fig.add_trace(go.Splom(dimensions=dims, text=text, hovertemplate="%{text}<extra></extra>", name=f"{front.name} front",
-                           marker=dict(size=15 if big else 6, color=COLORS[0], opacity=0.9 if big else 0.7,
-                                       line=dict(width=1.5 if big else 0.5, color="#0b3d66")),
-                           showupperhalf=False, diagonal_visible=False, showlegend=True))
+    fig.add_trace(matrix_trace(labels, [vals[o] for o in objs], text=text, hovertemplate="%{text}<extra></extra>",
+                               name=f"{front.name} front",
+                               marker=dict(size=15 if big else 6, color=COLORS[0], opacity=0.9 if big else 0.7,
+                                           line=dict(width=1.5 if big else 0.5, color="#0b3d66")), showlegend=True))
     for j, (name, params, ov) in enumerate(design_points(run, objs)):
         d = {k: np.array([v]) for k, v in params.items()}
         t = hover_lines(run, d, {k: np.array([v]) for k, v in ov.items()}, 0, name)
-        fig.add_trace(go.Splom(dimensions=[dict(label=_obj_label(run, o, short=True), values=[ov[o]]) for o in objs],
-                               text=[t], hovertemplate="%{text}<extra></extra>", name=esc(name),
-                               marker=dict(size=11 if j == 0 else 9, symbol=MARKS[j % len(MARKS)],
-                                           color="#111" if j == 0 else COLORS[(j + 1) % len(COLORS)],
-                                           line=dict(width=1, color="white")),
-                               showupperhalf=False, diagonal_visible=False))
+        fig.add_trace(matrix_trace(labels, [[ov[o]] for o in objs], text=[t], hovertemplate="%{text}<extra></extra>",
+                                   name=esc(name),
+                                   marker=dict(size=11 if j == 0 else 9, symbol=MARKS[j % len(MARKS)],
+                                               color="#111" if j == 0 else COLORS[(j + 1) % len(COLORS)],
+                                               line=dict(width=1, color="white"))))
     n = len(objs)
-    # lower half only: panels (i, j) for j < i; axes plain (no mirrored frame), panels shaded
-    for i in range(1, n + 1):
-        ax = dict(showline=False, mirror=False, zeroline=False, gridcolor="white", automargin=True)
-        fig.update_layout({f"xaxis{i if i > 1 else ''}": ax, f"yaxis{i if i > 1 else ''}": ax})
-    fig.update_layout(plot_bgcolor="#eef1f5")
+    style_matrix(fig, labels)
     fig.update_layout(template=TEMPLATE, height=max(420, 230 * (n - 1) + 170), dragmode="select",
                       title=dict(text=front_title(front), x=0.01),
                       legend=dict(orientation="h", y=1.0, yanchor="bottom", x=0, xanchor="left"),
