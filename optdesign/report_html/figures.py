@@ -250,8 +250,8 @@ def style_matrix(fig: go.Figure, labels: list[str]) -> None:
 
 def front_title(front: Front) -> str:
     if front.size == 1:
-        return (f"{esc(front.name)}: the front collapsed to ONE design (the same design is best in every "
-                "objective; no trade-off within these bounds)")
+        return (f"{esc(front.name)}: the front collapsed to ONE design (no trade-off among the designs this "
+                "stage evaluated)")
     return f"{esc(front.name)}: {front.size} non-dominated designs"
 
 
@@ -327,7 +327,7 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
                       title=dict(text=f"{esc(front.name)}: the front's designs (left, config units; axes span the bounds) "
                                       f"and objectives (right){one}", x=0.01,
                                  font=dict(size=13)),
-                      margin=dict(t=150, l=70, r=150 if front.size > 1 else 70, b=40))
+                      margin=dict(t=150, l=70, r=150 if front.size > 1 else 110, b=40))
     return fig
 
 
