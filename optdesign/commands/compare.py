@@ -18,7 +18,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ..cli import UsageError
+    from ._common import UsageError
     from ..report_html import write_compare_html
     from ..runs import RunFolderError
 

@@ -17,7 +17,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ..cli import UsageError
+    from ._common import UsageError
     from ..report_html.atlas import DEFAULT_RESOLUTION
     from ..report_html import write_report_html
     from ..runs import RunFolderError

@@ -87,6 +87,8 @@ class Mechanism:
     supported_indices: ClassVar[tuple[str, ...]] = ()
     #: which pose axes are angles (for unit display)
     angular_axes: ClassVar[tuple[str, ...]] = ()
+    #: SI unit of pose coordinates that are neither lengths nor angles ("1" for a sine)
+    pose_units: ClassVar[Mapping[str, str]] = {}
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -132,6 +134,17 @@ class Mechanism:
     def check_design(cls, design: Mapping[str, float]) -> tuple[str, str] | None:
         """Return (key, message) if a design is geometrically impossible, else None."""
         return None
+
+    @classmethod
+    def pose_unit(cls, axis: str) -> str:
+        """SI unit of a pose coordinate: ``m``, ``rad`` or ``1``."""
+        return cls.pose_units.get(axis, "rad" if axis in cls.angular_axes else "m")
+
+    @classmethod
+    def actuator_unit(cls, params: Mapping[str, float]) -> str:
+        """SI unit of the actuator coordinates (``m`` for prismatic and struts,
+        ``rad`` for revolute inputs) given the fixed parameters (switches)."""
+        return "m"
 
     @property
     def dof(self) -> int:

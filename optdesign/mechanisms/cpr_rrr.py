@@ -106,6 +106,10 @@ class CPR_RRR(Mechanism):
     )
     supported_indices = ("isotropy", "dexterity", "manipulability", "driving", "stiffness")
 
+    @classmethod
+    def actuator_unit(cls, params):
+        return "m" if float(params.get("input_type", ROTARY)) == LINEAR else "rad"
+
     def __init__(self, **params):
         super().__init__(**params)
         it = np.unique(np.asarray(self.input_type, dtype=float))

@@ -67,6 +67,14 @@ def _p(a, k: int) -> np.ndarray:
     return a.reshape(a.shape + (1,) * k)
 
 
+def _base_radius(p) -> np.ndarray:
+    return np.asarray(p["r_B"], dtype=float)
+
+
+def _overall_radius(p) -> np.ndarray:
+    return np.maximum(np.asarray(p["r_B"], float), np.asarray(p["r_b"], float))
+
+
 @register
 class SpsS(Mechanism):
     """3-SPS-S orientation mechanism; pose (psi, theta, phi) in rad, legs (l1, l2, l3) in m.
@@ -89,11 +97,10 @@ class SpsS(Mechanism):
         Param("delta", "angle", 0.0, doc="turn of the platform triangle relative to the base one"),
     )
     extra_objectives = {
-        "base_radius": ExtraObjective(lambda p: np.asarray(p["r_B"], dtype=float), "min",
-                                      "base joint circle radius r_B (the footprint of the base)", "m", ("r_B",)),
-        "overall_radius": ExtraObjective(
-            lambda p: np.maximum(np.asarray(p["r_B"], float), np.asarray(p["r_b"], float)), "min",
-            "max(r_b, r_B) (the plan-view envelope)", "m", ("r_b", "r_B")),
+        "base_radius": ExtraObjective(_base_radius, "min", "base joint circle radius r_B (the footprint of the base)",
+                                      "m", ("r_B",)),
+        "overall_radius": ExtraObjective(_overall_radius, "min", "max(r_b, r_B) (the plan-view envelope)", "m",
+                                         ("r_b", "r_B")),
     }
     supported_indices = ("axis_stiffness", "stiffness", "dexterity", "isotropy", "driving", "manipulability")
     angular_axes = ("psi", "theta", "phi")

@@ -80,6 +80,7 @@ class UpsUprS(Mechanism):
         ("a2", PAPER_PARAMETERS["a2"], "base offset of the UPR leg"),
         ("b1", PAPER_PARAMETERS["b1"], "platform offset of the UPS leg"),
         ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPR leg")))
+    pose_units = {"s_theta": "1", "s_psi": "1"}
     supported_indices = ("isotropy", "dexterity", "manipulability")
     angular_axes = ()
 

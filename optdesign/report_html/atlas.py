@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Config, WorkspaceSpec
-from ..evaluate import evaluate
-from ..workspace import Workspace
+from ..config import Config
+from ..evaluate import evaluate, mechanism_class
+from ..workspace import Workspace, WorkspaceSpec
 from .units import pose_display
 
 __all__ = ["AtlasMap", "atlas_map", "DEFAULT_RESOLUTION"]
@@ -40,9 +40,7 @@ def _fmt(x: float) -> str:
 
 def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -> AtlasMap | None:
     """The atlas of ``design`` (SI parameters), or None for a workspace of one point."""
-    from ..mechanisms import get
-
-    names = tuple(get(cfg.mechanism).pose_names)
+    names = tuple(mechanism_class(cfg).pose_names)
     ws = cfg.workspace
     fixed: dict[str, float] = {}
     cut = []

@@ -12,6 +12,7 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
+from ..evaluate import mechanism_class
 from .atlas import AtlasMap
 from .rundata import Front, RunData
 from .units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
@@ -61,9 +62,8 @@ def fmt(x, digits: int = 5) -> str:
 def objective_sense(run: RunData, name: str) -> str:
     if name in run.cfg.indices:
         return run.cfg.indices[name].sense
-    from ..optimize.objectives import EXTRA_OBJECTIVES
-
-    return EXTRA_OBJECTIVES[name][1] if name in EXTRA_OBJECTIVES else "min"
+    e = mechanism_class(run.cfg).extra_objectives.get(name)
+    return e.sense if e is not None else "min"
 
 
 def _obj_label(run: RunData, name: str, short: bool = False) -> str:
@@ -92,9 +92,7 @@ def hover_lines(run: RunData, designs: dict, values: dict, i: int, title: str) -
 
 
 def _extra_value(run: RunData, name: str, design: dict) -> float:
-    from ..optimize.objectives import EXTRA_OBJECTIVES
-
-    fn = EXTRA_OBJECTIVES[name][0]
+    fn = mechanism_class(run.cfg).extra_objectives[name].func
     full = {k: np.array([float(design.get(k, dv.value))]) for k, dv in run.cfg.design_variables.items()}
     return float(np.asarray(fn(full), dtype=float)[0])
 

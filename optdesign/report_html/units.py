@@ -4,14 +4,15 @@ pose axes in the workspace's, indices and objectives in SI with the unit named.
 Index units follow from the mechanism's matrices: J maps pose rates to
 actuator rates (actuator unit / pose unit), M maps pose accelerations to
 actuator forces, K = J^T k J maps pose displacements to the generalized force
-conjugate to the pose (N for a length, N m for an angle).  A mechanism may
-declare ``pose_units`` (axis -> unit) and ``actuator_unit``; otherwise angular
-axes (``angular_axes``) are rad, other axes m, and actuators prismatic (m),
-with the exceptions listed in ``_POSE_UNITS`` and ``_ACTUATOR_UNIT``.
+conjugate to the pose (N for a length, N m for an angle).  The mechanism
+declares them: ``pose_units`` (axis -> unit; angular axes rad, others m by
+default) and ``actuator_unit(params)`` (m unless the mechanism says otherwise),
+as ``Mechanism.pose_unit`` and ``Mechanism.actuator_unit`` say.
 """
 from __future__ import annotations
 
 from ..config import Config, DesignVariable
+from ..evaluate import mechanism_class
 
 __all__ = ["DIMENSIONLESS", "variable_unit", "pose_unit", "pose_display", "index_unit", "objective_unit",
            "label", "index_label"]
@@ -19,19 +20,13 @@ __all__ = ["DIMENSIONLESS", "variable_unit", "pose_unit", "pose_display", "index
 #: shown for a dimensionless quantity
 DIMENSIONLESS = "–"
 
-#: pose axes that are neither lengths nor angles (sines of angles)
-_POSE_UNITS = {"ups_upr_s": {"s_theta": "1", "s_psi": "1"}}
-#: actuator units other than the default prismatic "m" (cpr_rrr: rotary unless input_type is 1)
-_ACTUATOR_UNIT = {"cpr_rrr": lambda params: "m" if float(params.get("input_type", 0.0)) == 1.0 else "rad"}
 #: design variables that are angles when the config gives no unit (radians)
 _ANGLE_NAMES = ("phi", "theta", "psi", "delta", "alpha", "beta", "gamma")
 _SUP = {2: "²", 3: "³", 4: "⁴", 5: "⁵", 6: "⁶"}
 
 
 def _mech(cfg: Config):
-    from ..mechanisms import get
-
-    return get(cfg.mechanism)
+    return mechanism_class(cfg)
 
 
 def variable_unit(cfg: Config, name: str) -> str:
@@ -48,11 +43,7 @@ def variable_unit(cfg: Config, name: str) -> str:
 
 def pose_unit(cfg: Config, axis: str) -> str:
     """SI unit of a pose axis: m, rad or 1."""
-    mech = _mech(cfg)
-    declared = getattr(mech, "pose_units", None) or _POSE_UNITS.get(cfg.mechanism, {})
-    if axis in declared:
-        return declared[axis]
-    return "rad" if axis in getattr(mech, "angular_axes", ()) else "m"
+    return _mech(cfg).pose_unit(axis)
 
 
 def pose_display(cfg: Config, axis: str) -> tuple[str, float]:
@@ -71,10 +62,7 @@ def pose_display(cfg: Config, axis: str) -> tuple[str, float]:
 
 def _actuator_unit(cfg: Config) -> str:
     mech = _mech(cfg)
-    if getattr(mech, "actuator_unit", None):
-        return mech.actuator_unit
-    f = _ACTUATOR_UNIT.get(cfg.mechanism)
-    return f({**mech.fixed_parameters, **cfg.parameters}) if f else "m"
+    return mech.actuator_unit({**mech.fixed_parameters, **cfg.parameters})
 
 
 def _pose_common(cfg: Config, axes=None) -> str | None:
@@ -141,10 +129,9 @@ def objective_unit(cfg: Config, term: str) -> tuple[str | None, float]:
     k = term.lstrip("-")
     if k in cfg.indices:
         return index_unit(cfg, k), 1.0
-    from ..optimize.objectives import EXTRA_OBJECTIVES
-
-    if k in EXTRA_OBJECTIVES:
-        params = EXTRA_OBJECTIVES[k][3]
+    extras = _mech(cfg).extra_objectives
+    if k in extras:
+        params = extras[k].parameters
         units = {variable_unit(cfg, p) for p in params if p in cfg.design_variables}
         if len(units) == 1:
             u = units.pop()
@@ -162,12 +149,11 @@ def label(name: str, unit: str | None) -> str:
 def index_label(cfg: Config, name: str, with_sense: bool = False) -> str:
     s = label(name, index_unit(cfg, name) if name in cfg.indices else objective_unit(cfg, name)[0])
     if with_sense:
-        sense = cfg.indices[name].sense if name in cfg.indices else _extra_sense(name)
+        sense = cfg.indices[name].sense if name in cfg.indices else _extra_sense(cfg, name)
         s += " (max)" if sense == "max" else " (min)"
     return s
 
 
-def _extra_sense(name: str) -> str:
-    from ..optimize.objectives import EXTRA_OBJECTIVES
-
-    return EXTRA_OBJECTIVES[name][1] if name in EXTRA_OBJECTIVES else "min"
+def _extra_sense(cfg: Config, name: str) -> str:
+    e = _mech(cfg).extra_objectives.get(name)
+    return e.sense if e is not None else "min"

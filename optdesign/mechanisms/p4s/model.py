@@ -42,6 +42,14 @@ PAPER_MASSES = {
     "rod_Izz": 1.276e-4,  # kg m^2, rod inertia about its own axis (no spin: does not enter)
 }
 
+def _base_radius(p) -> np.ndarray:
+    return np.asarray(p["r_b"], dtype=float)
+
+
+def _overall_radius(p) -> np.ndarray:
+    return np.maximum(np.asarray(p["r_b"], float), np.asarray(p["r_a"], float))
+
+
 @register
 class P4S(Mechanism):
     """3-P(4S) parallel mechanism (three translations).
@@ -77,11 +85,10 @@ class P4S(Mechanism):
         Param("rods_per_branch", "count", 2.0, low=0.0, doc="rods carrying mass in each parallelogram"),
     )
     extra_objectives = {
-        "base_radius": ExtraObjective(lambda p: np.asarray(p["r_b"], dtype=float), "min",
-                                      "base circumradius r_b (the footprint of the base)", "m", ("r_b",)),
-        "overall_radius": ExtraObjective(
-            lambda p: np.maximum(np.asarray(p["r_b"], float), np.asarray(p["r_a"], float)), "min",
-            "max(r_a, r_b) (the plan-view envelope)", "m", ("r_a", "r_b")),
+        "base_radius": ExtraObjective(_base_radius, "min", "base circumradius r_b (the footprint of the base)",
+                                      "m", ("r_b",)),
+        "overall_radius": ExtraObjective(_overall_radius, "min", "max(r_a, r_b) (the plan-view envelope)", "m",
+                                         ("r_a", "r_b")),
     }
     multibody_check = "optdesign.mechanisms.p4s.mujoco"
     supported_indices = ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving")
