@@ -88,15 +88,29 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
 
 def _statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool):
     """(summary, reachable (D, N), local or None): the compiled path's answer
-    when it has one (never when local values are kept), else the numpy path."""
+    for the requests it computes (never when local values are kept), the numpy
+    path for the others (with the compiled path's reachable mask, which equals
+    the numpy model's bitwise)."""
+    reach = None
     if not keep_local:
         fast = mech.global_statistics(requests, X)
         if fast is not None:
-            return fast[0], fast[1], None
+            summary, reach = fast
+            rest = [r for r in requests if r.name not in summary]
+            if not rest:
+                return summary, reach, None
+            more, _, _ = _numpy_statistics(mech, X, rest, D, False, reach)
+            return {**summary, **more}, reach, None
+    return _numpy_statistics(mech, X, requests, D, keep_local, reach)
+
+
+def _numpy_statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool,
+                      reach: np.ndarray | None):
     needs = {INDEX_KINDS[r.kind].needs for r in requests}
     summary, local = {}, {}
     with np.errstate(all="ignore"):
-        reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
+        if reach is None:
+            reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
         mats = mech.index_matrices(X, needs)
         for r in requests:
             vals = local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,

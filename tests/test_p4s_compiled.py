@@ -254,10 +254,19 @@ def test_design_without_reachable_points_gives_nan():
 
 
 def test_unsupported_index_takes_numpy_path():
-    cfg = _config(indices__dexterity={"kind": "dexterity"})
+    """The kernel answers the indices it computes and leaves the others to the
+    numpy path (with its reachable mask); evaluate() then equals the numpy path
+    for every index."""
+    cfg = _config(indices__dexterity={"kind": "dexterity"}, indices__manip={"kind": "manipulability"})
     mech = P4S(**cfg.design("after"), **cfg.parameters)
-    assert mech.global_statistics(index_requests(cfg, list(cfg.indices)), np.zeros((1, 3))) is None
+    ans = mech.global_statistics(index_requests(cfg, list(cfg.indices)), np.zeros((1, 3)))
+    assert set(ans[0]) == {"dynamic", "stiffness", "isotropy"}
+    assert mech.global_statistics(index_requests(cfg, ["dexterity", "manip"]), np.zeros((1, 3))) is None
     assert mech.global_statistics(index_requests(cfg, ["dynamic", "isotropy"]), np.zeros((1, 3))) is not None
+    rng = np.random.default_rng(4)
+    designs = {"r_a": rng.uniform(0.18, 0.32, 20), "r_b": rng.uniform(0.55, 0.80, 20),
+               "phi": np.radians(rng.uniform(20, 40, 20))}
+    _compare(cfg, designs, _workspace(cfg, _poses(rng, 700)))
 
 
 # ----------------------------------------------------------------------------- threads, fallback

@@ -182,9 +182,11 @@ class Mechanism:
         ``(summary, reachable)`` with ``summary[request.name]`` mapping ``mean``,
         ``min``, ``max``, ``std`` and ``count`` to arrays (D,) (statistics over
         the reachable points) and ``reachable`` (D, N), or None when this
-        mechanism has no compiled path for them; the caller
-        (:func:`optdesign.evaluate.evaluate`) then runs the numpy path.  The
-        answer must equal the numpy path's to 1e-12 relative."""
+        mechanism has no compiled path here.  The summary may answer only some
+        of the requests (those its kernels compute); the caller
+        (:func:`optdesign.evaluate.evaluate`) runs the numpy path for the
+        others, with this reachable mask, which must equal the numpy model's
+        bitwise.  Every answer must equal the numpy path's to 1e-12 relative."""
         return None
 
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:

@@ -201,23 +201,23 @@ def p4s_summary(mech, X, want=(True, True, True, True, True)):
 
 
 def plan(requests):
-    """[(name, kernel row, factor)] for the requested indices, or None if one
-    of them is not computed by the kernel."""
+    """[(name, kernel row, factor)] for the requested indices the kernel
+    computes (the others are left out: the caller computes them with the numpy path)."""
     out = []
     for req in requests:
         conv = req.convention
         if req.kind not in SUPPORTED or conv not in SUPPORTED[req.kind]:
-            return None
+            continue
         opts = req.option_dict()
         kval = opts.pop("k", 1.0)
         if opts:
-            return None
+            continue
         try:
             kval = float(kval)
         except (TypeError, ValueError):
-            return None
+            continue
         if not (math.isfinite(kval) and kval > 0.0):
-            return None
+            continue
         if req.kind == "dynamic":
             out.append((req.name, 0, 1.0))
         elif req.kind == "stiffness":
@@ -236,7 +236,7 @@ def global_statistics(mech, requests, X):
     if not enabled():
         return None
     rows = plan(requests)
-    if rows is None or _n_designs(mech) is None:
+    if not rows or _n_designs(mech) is None:
         return None
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != 3 or LOCAL.get() is None:
