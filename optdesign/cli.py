@@ -18,8 +18,8 @@ from .commands._common import UsageError  # owned by the commands; optdesign.cli
 from .config import ConfigError
 
 #: order in which commands are listed in --help
-_ORDER = ["reproduce", "run", "evaluate", "atlas", "ik", "fk", "batch", "summarize", "bench",
-          "validate-config", "validate-dynamics"]
+_ORDER = ["reproduce", "run", "init", "evaluate", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
+          "bench", "validate-config", "validate-dynamics"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -62,6 +62,10 @@ class Mechanism:
     parameters: ClassVar[tuple[Param, ...]] = ()
     #: objectives beyond the indices that ``optimizer.extra_objectives`` may name
     extra_objectives: ClassVar[Mapping[str, ExtraObjective]] = {}
+    #: a starting config for ``optdesign init``: ``design_variables`` (value,
+    #: bounds, unit as a config writes them), ``parameters`` (overrides of the
+    #: defaults), ``workspace`` and ``indices`` that suit the mechanism
+    example: ClassVar[Mapping] = {}
     #: module of an independent multibody (MuJoCo) check of the dynamics, if any
     #: (``optdesign validate-dynamics``)
     multibody_check: ClassVar[str | None] = None

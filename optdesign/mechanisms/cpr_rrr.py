@@ -106,6 +106,15 @@ class CPR_RRR(Mechanism):
     )
     supported_indices = ("isotropy", "dexterity", "manipulability", "driving", "stiffness")
 
+    example = {  # configs/cpr_rrr_opt.yaml: rotary inputs, a 200 mm x 200 mm bed
+        "parameters": {"k": 1.0},
+        "design_variables": {"n": {"value": 0.1, "bounds": [0.03, 0.3]}, "f": {"value": 0.02, "bounds": [-0.05, 0.25]},
+                             "w": {"value": 0.02, "bounds": [-0.05, 0.25]}, "l1": {"value": 0.3}, "l2": {"value": 0.3}},
+        "workspace": {"type": "box", "axes": {"x": [0.0, 0.2], "y": [0.0, 0.2]}, "sampling": "grid", "step": 0.02},
+        "indices": {"dexterity": {"kind": "dexterity", "convention": "normalized"},
+                    "stiffness": {"kind": "stiffness", "convention": "lambda_min_K"}},
+    }
+
     @classmethod
     def actuator_unit(cls, params):
         return "m" if float(params.get("input_type", ROTARY)) == LINEAR else "rad"

@@ -102,6 +102,15 @@ class SpsS(Mechanism):
         "overall_radius": ExtraObjective(_overall_radius, "min", "max(r_b, r_B) (the plan-view envelope)", "m",
                                          ("r_b", "r_B")),
     }
+    example = {  # configs/sps_s_opt.yaml: a turned platform triangle, +-10 deg in each angle
+        "parameters": {"delta": {"value": 30, "unit": "deg"}},
+        "design_variables": {"r_b": {"value": 0.4, "bounds": [0.2, 0.6]}, "r_B": {"value": 0.8, "bounds": [0.5, 1.2]},
+                             "h_B": {"value": 0.31, "bounds": [0.15, 0.5]}, "h_o": {"value": 0.0, "bounds": [-0.1, 0.4]}},
+        "workspace": {"type": "box", "unit": "deg", "axes": {"psi": [-10, 10], "theta": [-10, 10], "phi": [-10, 10]},
+                      "sampling": "grid", "points_per_axis": 5},
+        "indices": {"dexterity": {"kind": "dexterity"}, "stiffness": {"kind": "stiffness"},
+                    "driving": {"kind": "driving"}},
+    }
     supported_indices = ("axis_stiffness", "stiffness", "dexterity", "isotropy", "driving", "manipulability")
     angular_axes = ("psi", "theta", "phi")
 

@@ -81,6 +81,16 @@ class UpsUprS(Mechanism):
         ("b1", PAPER_PARAMETERS["b1"], "platform offset of the UPS leg"),
         ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPR leg")))
     pose_units = {"s_theta": "1", "s_psi": "1"}
+    example = {  # configs/ups_upr_s_opt.yaml: +-40 % around the paper's structure parameters
+        "design_variables": {"R": {"value": 260, "bounds": [160, 360], "unit": "mm"},
+                             "a1": {"value": 150, "bounds": [90, 210], "unit": "mm"},
+                             "a2": {"value": 150, "bounds": [90, 210], "unit": "mm"},
+                             "b1": {"value": 150, "bounds": [90, 210], "unit": "mm"},
+                             "b2": {"value": 100, "bounds": [60, 140], "unit": "mm"}},
+        "workspace": {"type": "box", "axes": {"s_theta": [-0.5, 0.5], "s_psi": [-0.5, 0.5]},
+                      "sampling": "grid", "points_per_axis": 11},
+        "indices": {"dexterity": {"kind": "dexterity"}, "manipulability": {"kind": "manipulability"}},
+    }
     supported_indices = ("isotropy", "dexterity", "manipulability")
     angular_axes = ()
 

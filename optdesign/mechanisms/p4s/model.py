@@ -91,6 +91,16 @@ class P4S(Mechanism):
                                          ("r_a", "r_b")),
     }
     multibody_check = "optdesign.mechanisms.p4s.mujoco"
+    example = {  # the paper's design box and workspace plane (configs/p4s_paper.yaml)
+        "design_variables": {"r_a": {"value": 0.25, "bounds": [0.21, 0.29]},
+                             "r_b": {"value": 0.67, "bounds": [0.63, 0.71]},
+                             "L": {"value": 0.38}, "d": {"value": 0.12},
+                             "phi": {"value": 30, "bounds": [25, 35], "unit": "deg"}},
+        "workspace": {"type": "box", "axes": {"x": [-0.05, 0.05], "y": [-0.05, 0.05], "z": 0.57},
+                      "sampling": "grid", "step": 0.01},
+        "indices": {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"},
+                    "isotropy": {"kind": "isotropy"}},
+    }
     supported_indices = ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving")
 
     @classmethod
