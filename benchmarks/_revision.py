@@ -10,9 +10,23 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
+#: where each kernel module lives: under the 3-P(4S)'s package since the
+#: restructuring, in optdesign/fast/ before it
+_PATHS = {"_p4s_kernels": ("optdesign/mechanisms/p4s/kernels.py", "optdesign/fast/_p4s_kernels.py"),
+          "_fk_kernels": ("optdesign/mechanisms/p4s/fk_kernels.py", "optdesign/fast/_fk_kernels.py")}
+
+
+def _source(rev: str, name: str) -> str | None:
+    for path in _PATHS.get(name, (f"optdesign/fast/{name}.py",)):
+        res = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:{path}"], capture_output=True, text=True)
+        if res.returncode == 0:
+            return res.stdout
+    return None
+
 
 def kernel_module(rev: str, name: str = "_p4s_kernels", directory: str | None = None):
-    """``optdesign/fast/<name>.py`` of revision ``rev`` as a module (its
+    """The kernel module ``name`` (``_p4s_kernels``: the local-index kernels,
+    ``_fk_kernels``: forward kinematics) of revision ``rev`` as a module (its
     relative imports made absolute), or None if that revision has no such file.
 
     The file is written to ``directory`` (default: a directory per revision in
@@ -20,11 +34,12 @@ def kernel_module(rev: str, name: str = "_p4s_kernels", directory: str | None = 
     so that numba's cache of the old kernels survives) and registered in
     ``sys.modules`` (numba's cache finds a function's environment by module name).
     """
-    res = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:optdesign/fast/{name}.py"], capture_output=True,
-                         text=True)
-    if res.returncode != 0:
+    src = _source(rev, name)
+    if src is None:
         return None
-    src = (res.stdout.replace("from ..", "from optdesign.")
+    src = (src.replace("from ...fast.", "from optdesign.fast.")
+           .replace("from .model import", "from optdesign.mechanisms.p4s.model import")
+           .replace("from ..", "from optdesign.")
            .replace("from . import", "from optdesign.fast import")
            .replace("from ._", "from optdesign.fast._"))
     d = directory or os.path.join(tempfile.gettempdir(), f"optdesign_rev_{rev}")

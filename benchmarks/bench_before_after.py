@@ -7,7 +7,7 @@ numba cache), each called the way its wrapper called it:
   the per-design reductions: 50 designs x 1000 points and 1 design x 10^6
   points (the old kernel took three transposed coordinate arrays, made by
   its wrapper on every call);
-* forward kinematics of 10^6 poses through ``fast.forward_p4s`` (new output
+* forward kinematics of 10^6 poses through ``P4S.forward`` (the compiled path) (new output
   array per call, and a reused one) against the old wrapper (transposed
   copy of the strokes, then the kernel).
 
@@ -62,10 +62,10 @@ def main(argv=None):
 
     import numba
 
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
     from optdesign.mechanisms.p4s import P4S
 
-    k = fast.kernels()
+    k = fast.LOCAL.get()
     tmp = tempfile.mkdtemp(prefix="optdesign_old_kernels_")
     os.environ.setdefault("NUMBA_CACHE_DIR", tmp)
     old = _old_kernels(args.rev, tmp)
@@ -103,10 +103,10 @@ def main(argv=None):
         return old_fk.p4s_forward(F, T[0], T[1], T[2])
 
     out = np.empty((N, 3))
-    note = "max error %.1e -> %.1e m" % (np.abs(fk_before() - X).max(), np.abs(fast.forward_p4s(mech, Q) - X).max())
-    cases.append(("forward kinematics, 10^6 poses", N, fk_before, lambda: fast.forward_p4s(mech, Q), note))
+    note = "max error %.1e -> %.1e m" % (np.abs(fk_before() - X).max(), np.abs(mech.forward(Q) - X).max())
+    cases.append(("forward kinematics, 10^6 poses", N, fk_before, lambda: mech.forward(Q), note))
     cases.append(("forward kinematics, 10^6 poses, reused out", N, fk_before,
-                  lambda: fast.forward_p4s(mech, Q, out=out), ""))
+                  lambda: mech.forward(Q, out=out), ""))
     print(f"old kernels: {args.rev}; load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}")
     print("| threads | case | before (M/s, cpu/wall) | after (M/s, cpu/wall) | after / before | |")
     print("|---:|---|---:|---:|---:|---|")

@@ -1,11 +1,11 @@
-"""Forward kinematics (``fast.forward_p4s``) against an earlier version of the
+"""Forward kinematics (``P4S.forward`` (the compiled path)) against an earlier version of the
 FK kernel in the same process: the old kernel file is taken from git
 (``optdesign/fast/_fk_kernels.py`` of that revision, or ``_p4s_kernels.py``
 before the FK kernels had a module of their own) and compiled into a
 temporary module with its own numba cache.  Both sides are called alike
 (strokes (N, 3), a new output array per call) on the same strokes, alternately,
 best of --repeat runs for each thread count and size; also the accuracy of
-both on random designs and poses (the ranges of ``tests/test_fast.py``).
+both on random designs and poses (the ranges of ``tests/test_p4s_compiled.py``).
 
     python benchmarks/bench_fk.py [--rev 8ae7683] [--repeat 11] [--threads 1 2] [--sizes 100000 1000000]
 
@@ -88,10 +88,10 @@ def main(argv=None):
 
     import numba
 
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
     from optdesign.mechanisms.p4s import P4S
 
-    new = fast.fk_kernels()
+    new = fast.FK.get()
     tmp = tempfile.mkdtemp(prefix="optdesign_old_fk_")
     os.environ.setdefault("NUMBA_CACHE_DIR", tmp)
     old = old_fk_module(args.rev, tmp)

@@ -1,4 +1,4 @@
-"""The current local-index kernel (``optdesign/fast/_p4s_kernels.py``) against
+"""The current local-index kernel (``optdesign/mechanisms/p4s/kernels.py``) against
 the one of an earlier revision whose kernel has the current signature
 (``p4s_summary(P, X, want, want_two)``, ``p4s_local(P, X, want_two)`` with X
 (N, 3) C-contiguous; b3b39c7 and later), in the same process: the old file is
@@ -14,7 +14,7 @@ temp dir that is kept between runs, so its numba cache is reused).
 * bitwise equality (``np.array_equal(..., equal_nan=True)`` on every output:
   stats, counts, reach codes, code-2 counts; values and codes of
   ``p4s_local``) with want_two False and True, on the bench inputs and on
-  random designs/poses over the wider ranges of ``tests/test_fast.py``
+  random designs/poses over the wider ranges of ``tests/test_p4s_compiled.py``
   (unreachable and near-singular points included), plus the workspace centre
   and poses along the axis across the reachable range.
 
@@ -36,16 +36,16 @@ from bench_before_after import _best  # noqa: E402
 
 
 def _old_kernels(rev: str):
-    """``optdesign/fast/_p4s_kernels.py`` of revision rev as a module (kept in a
+    """``optdesign/mechanisms/p4s/kernels.py`` of revision rev as a module (kept in a
     directory of its own under the temp dir, so its numba cache survives)."""
     mod = kernel_module(rev)
     if mod is None:
-        raise SystemExit(f"no optdesign/fast/_p4s_kernels.py at {rev}")
+        raise SystemExit(f"no optdesign/mechanisms/p4s/kernels.py at {rev}")
     return mod
 
 
 def _bench_inputs(D, N, seed=0):
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
     from optdesign.commands.bench import _setup
     from optdesign.config import load_config
     from optdesign.mechanisms.p4s import P4S
@@ -59,9 +59,9 @@ def _bench_inputs(D, N, seed=0):
 
 
 def _wide_inputs(D, N, seed):
-    """Designs and poses over the ranges of tests/test_fast.py (many points
+    """Designs and poses over the ranges of tests/test_p4s_compiled.py (many points
     unreachable, some near-singular), plus special poses."""
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
     from optdesign.mechanisms.p4s import P4S
 
     rng = np.random.default_rng(seed)
@@ -116,9 +116,9 @@ def main(argv=None):
 
     import numba
 
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
 
-    new = fast.kernels()
+    new = fast.LOCAL.get()
     old = _old_kernels(args.rev)
     want = np.array([True, True, False, True, False])
 

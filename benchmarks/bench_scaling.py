@@ -55,14 +55,14 @@ def _numpy_eval(mech, X):
 
 
 def row(D, N, repeat, np_cache):
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
 
     mech = _mech(D)
     X = _points(N)
     want = (True, True, False, True, False)
     fast.p4s_summary(mech, X, want)
     t = _best(lambda: fast.p4s_summary(mech, X, want), repeat)
-    k = fast.kernels()
+    k = fast.LOCAL.get()
     P = fast.design_constants(mech)
     w = np.array(want)
     tk = _best(lambda: k.p4s_summary(P, X, w, False), repeat)
@@ -86,13 +86,13 @@ def main(argv=None):
     args = ap.parse_args(argv)
     import numba
 
-    from optdesign import fast
+    from optdesign.mechanisms.p4s import compiled as fast
     from optdesign.commands.bench import machine
 
     if args.threads:
         numba.set_num_threads(args.threads)
-    if not fast.available():
-        raise SystemExit(f"numba kernels unavailable: {fast.import_error()}")
+    if not fast.LOCAL.available():
+        raise SystemExit(f"numba kernels unavailable: {fast.LOCAL.error}")
     np_cache: dict = {}
     pts = [row(1, N, args.repeat, np_cache) for N in (100, 1_000, 10_000, 100_000, 1_000_000)]
     des = [row(D, 1000, args.repeat, np_cache) for D in (10, 25, 50, 100, 200, 400)]

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optdesign.mechanisms.cpr_rrr import plot_motion_example
+from optdesign.studies.cpr_rrr_motion import plot_motion_example
 
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "figures" / "cpr_rrr_motion.png"
 out.parent.mkdir(parents=True, exist_ok=True)

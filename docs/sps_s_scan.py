@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from optdesign.mechanisms.sps_s import log_misfit, scan_paper_ranges
+from optdesign.studies.sps_s_paper import log_misfit, scan_paper_ranges
 
 GROUPS = [("stiffness", "dexterity", "driving"), ("stiffness",), ("dexterity",), ("driving",),
           ("stiffness", "dexterity"), ("stiffness", "driving"), ("dexterity", "driving")]

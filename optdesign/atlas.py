@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import Config, WorkspaceSpec
-from .evaluate import evaluate
+from .config import Config
+from .evaluate import evaluate, mechanism_class
 from .io import atomic_write_text
-from .workspace import sample
+from .workspace import WorkspaceSpec, sample
 
 __all__ = ["atlas_plane", "write_atlas"]
 
@@ -18,9 +18,7 @@ __all__ = ["atlas_plane", "write_atlas"]
 def atlas_plane(cfg: Config, resolution: int | None = None, fixed: dict[str, float] | None = None):
     """The grid of the atlas: the config's workspace if it is a plane grid,
     otherwise its bounding box cut at the middle (or ``fixed``) of the extra axes."""
-    from .mechanisms import get
-
-    names = get(cfg.mechanism).pose_names
+    names = mechanism_class(cfg).pose_names
     ws = cfg.workspace
     axes = dict(ws.axes)
     if ws.type == "cylinder":

@@ -14,15 +14,12 @@ import pkgutil
 import sys
 
 from . import __version__
+from .commands._common import UsageError  # owned by the commands; optdesign.cli.UsageError stays an alias
 from .config import ConfigError
 
 #: order in which commands are listed in --help
-_ORDER = ["reproduce", "run", "evaluate", "atlas", "ik", "fk", "batch", "summarize", "bench",
-          "validate-config", "validate-dynamics"]
-
-
-class UsageError(Exception):
-    """A mistake in the command line (exit status 2, one line)."""
+_ORDER = ["reproduce", "run", "init", "evaluate", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
+          "bench", "validate-config", "validate-dynamics"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,5 +1,15 @@
-"""Global indices of designs over a workspace (the flow config -> mechanism ->
-workspace -> local indices -> means over W), vectorized over a population."""
+"""Global indices of designs over a workspace: the one place that builds
+mechanisms from a config (config -> mechanism -> workspace -> local indices ->
+means over W), vectorized over a population.
+
+* :func:`evaluate` — global statistics (mean, min, max, std) of the config's
+  indices for D designs; the mechanism's compiled path answers when it has one
+  (``Mechanism.global_statistics``), the numpy path otherwise;
+* :class:`Evaluator` — what the optimizer calls: design vectors (D, n_var) ->
+  index values, extra objectives and constraint quantities, all from one
+  :func:`evaluate` pass per population; after construction it holds no config;
+* :func:`build` — one mechanism of a config, for a named design or a mapping.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -7,25 +17,52 @@ from typing import Mapping
 
 import numpy as np
 
-from .config import Config
+from .config import Config, ConfigError
 from .indices import INDEX_KINDS, global_summary, local_index
+from .mechanisms import Mechanism, get
+from .mechanisms.base import IndexRequest
 from .workspace import Workspace, sample
 
-__all__ = ["Evaluation", "evaluate", "evaluate_named", "workspace_of"]
+__all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
+           "index_requests"]
+
+#: the hidden request for the worst conditioning over W when the config has no isotropy index
+_COND = "__cond_2"
+
+
+def mechanism_class(config: Config) -> type[Mechanism]:
+    """The mechanism class of a config (a registered name or a described mechanism)."""
+    cls = getattr(config, "mechanism_class", None)
+    return cls if cls is not None else get(config.mechanism)
 
 
 def workspace_of(config: Config) -> Workspace:
-    from .mechanisms import get
+    return sample(config.workspace, mechanism_class(config).pose_names)
 
-    return sample(config.workspace, get(config.mechanism).pose_names)
+
+def build(config: Config, design: Mapping[str, float] | str) -> Mechanism:
+    """The mechanism of a config for a named design or a parameter mapping (SI)."""
+    if isinstance(design, str):
+        design = config.design(design)
+    return mechanism_class(config)(**{**config.parameters, **design})
+
+
+def index_requests(config: Config, names=None) -> list[IndexRequest]:
+    """The config's indices (or those named) as plain requests."""
+    names = list(names) if names is not None else list(config.indices)
+    out = []
+    for n in names:
+        spec = config.indices[n]
+        out.append(IndexRequest(n, spec.kind, spec.convention, tuple(sorted((spec.options or {}).items()))))
+    return out
 
 
 @dataclass
 class Evaluation:
     """Global (and optionally local) index values of D designs over N points.
 
-    ``summary[index]`` maps ``mean``/``min``/``max``/``std`` to arrays (D,),
-    ``reachable_fraction`` is (D,), ``local[index]`` (D, N) if kept.
+    ``summary[index]`` maps ``mean``/``min``/``max``/``std``/``count`` to arrays
+    (D,), ``reachable_fraction`` is (D,), ``local[index]`` (D, N) if kept.
     """
 
     summary: dict[str, dict[str, np.ndarray]]
@@ -49,49 +86,59 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
     return full
 
 
+def _statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool):
+    """(summary, reachable (D, N), local or None): the compiled path's answer
+    for the requests it computes (never when local values are kept), the numpy
+    path for the others (with the compiled path's reachable mask, which equals
+    the numpy model's bitwise)."""
+    reach = None
+    if not keep_local:
+        fast = mech.global_statistics(requests, X)
+        if fast is not None:
+            summary, reach = fast
+            rest = [r for r in requests if r.name not in summary]
+            if not rest:
+                return summary, reach, None
+            more, _, _ = _numpy_statistics(mech, X, rest, D, False, reach)
+            return {**summary, **more}, reach, None
+    return _numpy_statistics(mech, X, requests, D, keep_local, reach)
+
+
+def _numpy_statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool,
+                      reach: np.ndarray | None):
+    needs = {INDEX_KINDS[r.kind].needs for r in requests}
+    summary, local = {}, {}
+    with np.errstate(all="ignore"):
+        if reach is None:
+            reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
+        mats = mech.index_matrices(X, needs)
+        for r in requests:
+            vals = local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
+                               options=r.option_dict())
+            vals = np.broadcast_to(vals, reach.shape)
+            summary[r.name] = global_summary(vals, reach)
+            if keep_local:
+                local[r.name] = np.where(reach, vals, np.nan)
+    return summary, reach, (local if keep_local else None)
+
+
+def _evaluate(cls: type[Mechanism], fixed: Mapping[str, float], full: dict[str, np.ndarray], ws: Workspace,
+              requests: list[IndexRequest], keep_local: bool = False):
+    D = len(next(iter(full.values())))
+    mech = cls(**{**fixed, **{k: v[:, None] for k, v in full.items()}})
+    summary, reach, local = _statistics(mech, ws.X, requests, D, keep_local)
+    return mech, summary, reach, local
+
+
 def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_local: bool = False,
              index_names=None) -> Evaluation:
     """Evaluate a population: ``designs`` maps parameter names to arrays (D,)
     (missing ones take their config value) or is a list of mappings."""
-    from .mechanisms import get
-
     ws = workspace if workspace is not None else workspace_of(config)
     full = _stack_designs(config, designs)
-    params = {k: v[:, None] for k, v in full.items()}
-    kw = dict(config.parameters)
-    kw.update(params)
-    mech = get(config.mechanism)(**kw)
-    names = list(index_names) if index_names is not None else list(config.indices)
-    needs = {INDEX_KINDS[config.indices[n].kind].needs for n in names}
-    # the fused compiled kernel (optdesign.fast) when it applies; OPTDESIGN_FAST=0 forces numpy
-    fast = None
-    if not keep_local:
-        from .fast import try_evaluate
-
-        fast = try_evaluate(config, mech, ws.X, names)
-        if fast is None and getattr(mech, "global_statistics", None) is not None:
-            # the mechanism's own compiled path (described mechanisms); None: the numpy path
-            from .mechanisms.described.compiled import requests_of
-
-            fast = mech.global_statistics(requests_of(config, names), ws.X)
-    if fast is not None:
-        summary, reach = fast
-        local = {}
-    else:
-        with np.errstate(all="ignore"):
-            reach = np.broadcast_to(mech.reachable(ws.X), (len(next(iter(full.values()))), ws.n))
-            mats = mech.index_matrices(ws.X, needs)
-            summary, local = {}, {}
-            for n in names:
-                spec = config.indices[n]
-                vals = local_index(spec.kind, J=mats.get("J"), M=mats.get("M"), convention=spec.convention,
-                                   options=spec.options)
-                vals = np.broadcast_to(vals, reach.shape)
-                summary[n] = global_summary(vals, reach)
-                if keep_local:
-                    local[n] = np.where(reach, vals, np.nan)
-    frac = reach.mean(axis=-1)
-    return Evaluation(summary, reach, frac, local if keep_local else None, ws)
+    _, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws,
+                                         index_requests(config, index_names), keep_local)
+    return Evaluation(summary, reach, reach.mean(axis=-1), local, ws)
 
 
 def evaluate_named(config: Config, names=None, workspace: Workspace | None = None) -> dict[str, dict]:
@@ -104,3 +151,112 @@ def evaluate_named(config: Config, names=None, workspace: Workspace | None = Non
         rec["reachable_fraction"] = float(ev.reachable_fraction[i])
         out[n] = rec
     return out
+
+
+class Evaluator:
+    """Design vectors -> everything the optimizer needs, in one pass per population.
+
+    ``__call__(X)`` with X (D, n_var) (the free design variables in order,
+    SI) returns ``{"values": {index or extra objective: (D,)}, "constraints":
+    {name: (D,)}, "reachable_fraction": (D,)}``.  Constraints (``<= 0`` feasible):
+
+    * ``reach``: the fraction of workspace points the design cannot reach;
+    * ``singularity``: ``max_W cond(J) / threshold - 1`` (the largest local
+      condition number over W: the config's first isotropy index, else
+      cond_2(J)), 1 where it is not finite;
+    * ``finite``: 1 where a global index is not finite;
+    * ``stroke_low`` / ``stroke_high``: actuator values outside
+      ``stroke_limits`` anywhere in W (m), when the config sets them.
+    """
+
+    CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
+
+    def __init__(self, mechanism: type[Mechanism], fixed: Mapping[str, float], defaults: Mapping[str, float],
+                 free: list[str], xl: np.ndarray, xu: np.ndarray, workspace: Workspace,
+                 requests: list[IndexRequest], senses: Mapping[str, str], threshold: float,
+                 stroke_limits: tuple[float, float] | None, extra: tuple[str, ...] = ()):
+        self.mechanism = mechanism
+        self.fixed = dict(fixed)
+        self.defaults = dict(defaults)
+        self.free = list(free)
+        self.xl, self.xu = np.asarray(xl, float), np.asarray(xu, float)
+        self.workspace = workspace
+        self.requests = list(requests)
+        self.index_names = [r.name for r in requests]
+        self.senses = dict(senses)
+        self.threshold = float(threshold)
+        self.stroke_limits = stroke_limits
+        self.extra = {k: mechanism.extra_objectives[k] for k in extra}
+        iso = [r.name for r in requests if r.kind == "isotropy"]
+        self._cond = iso[0] if iso else None
+        if self._cond is None:
+            self.requests_all = self.requests + [IndexRequest(_COND, "isotropy", "two_norm")]
+        else:
+            self.requests_all = self.requests
+        self.constraint_names = list(self.CONSTRAINTS[:3]) + (list(self.CONSTRAINTS[3:]) if stroke_limits else [])
+        self.n_evaluations = 0
+
+    @classmethod
+    def from_config(cls, config: Config, workspace: Workspace | None = None) -> "Evaluator":
+        free = [v.name for v in config.free_variables]
+        if not free:
+            raise ConfigError(config.source, "design_variables", "no free design variable: give at least one 'bounds'")
+        opt = config.optimizer
+        return cls(mechanism_class(config), config.parameters,
+                   {k: dv.value for k, dv in config.design_variables.items()}, free,
+                   np.array([config.design_variables[k].bounds[0] for k in free]),
+                   np.array([config.design_variables[k].bounds[1] for k in free]),
+                   workspace if workspace is not None else workspace_of(config),
+                   index_requests(config), {k: s.sense for k, s in config.indices.items()},
+                   opt.singularity_threshold, opt.stroke_limits, tuple(opt.extra_objectives))
+
+    # ------------------------------------------------------------------ vectors
+    def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """Design vectors (D, n_var) -> parameter arrays (D,), SI, the others at their values."""
+        X = np.atleast_2d(X)
+        out = {}
+        for k, v in self.defaults.items():
+            out[k] = X[:, self.free.index(k)] if k in self.free else np.full(X.shape[0], v)
+        return out
+
+    def vector(self, design: Mapping[str, float]) -> np.ndarray:
+        return np.array([design[k] for k in self.free], dtype=float)
+
+    def extra_values(self, designs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {k: np.asarray(e.func(designs), dtype=float) for k, e in self.extra.items()}
+
+    def extra_range(self, name: str, bounds: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
+        """(min, max) of an extra objective over the corners of the box its
+        parameters span (``bounds``: parameter -> (lo, hi); a fixed one lo == hi)."""
+        e = self.extra[name]
+        corners = {p: np.asarray(bounds[p], dtype=float) for p in e.parameters}
+        vals = np.asarray(e.func(corners), dtype=float)
+        return float(vals.min()), float(vals.max())
+
+    # ------------------------------------------------------------------ evaluation
+    def __call__(self, X: np.ndarray) -> dict:
+        designs = self.designs(X)
+        mech, summary, reach, _ = _evaluate(self.mechanism, self.fixed, designs, self.workspace, self.requests_all)
+        frac = reach.mean(axis=-1)
+        vals = {k: summary[k]["mean"] for k in self.index_names}
+        if self._cond is not None:
+            cmax = summary[self._cond]["max"]
+        else:  # the largest cond_2 over the reachable points, 0 where there is none
+            s = summary[_COND]
+            cmax = np.where(s["count"] > 0, s["max"], 0.0)
+        cons = {
+            "reach": 1.0 - frac,
+            "singularity": np.where(np.isfinite(cmax), cmax / self.threshold - 1.0, 1.0),
+            "finite": np.where(np.all([np.isfinite(v) for v in vals.values()], axis=0), 0.0, 1.0),
+        }
+        if self.stroke_limits is not None:
+            lo, hi = self.stroke_limits
+            with np.errstate(all="ignore"):
+                Q = mech.inverse(self.workspace.X)
+            qmin = np.nanmin(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
+            qmax = np.nanmax(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
+            cons["stroke_low"] = np.where(np.isfinite(qmin), lo - qmin, 1.0)
+            cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - hi, 1.0)
+        vals.update(self.extra_values(designs))
+        self.n_evaluations += X.shape[0]
+        return {"values": vals, "constraints": cons, "reachable_fraction": frac}

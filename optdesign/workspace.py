@@ -14,9 +14,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import WorkspaceSpec
+__all__ = ["WorkspaceSpec", "Workspace", "sample"]
 
-__all__ = ["Workspace", "sample"]
+
+@dataclass(frozen=True)
+class WorkspaceSpec:
+    """The region W of the task space over which global indices are averaged.
+
+    ``type`` is ``box`` (every axis a range or a fixed value: a fixed axis makes
+    a plane or a line) or ``cylinder`` (radius around ``center`` in the first
+    two axes, a range or a value on the third).  ``sampling`` is ``grid``
+    (``step`` or ``points_per_axis``) or ``sobol``/``halton``/``lhs``/``random``
+    (``points``, ``seed``).  All values SI (radians for angular axes unless
+    ``unit: deg``).
+    """
+
+    type: str
+    axes: dict[str, tuple[float, float]]  # name -> (lo, hi); lo == hi fixes the axis
+    sampling: str = "grid"
+    step: float | None = None
+    points_per_axis: int | None = None
+    points: int | None = None
+    seed: int = 0
+    radius: float | None = None
+    center: tuple[float, float] = (0.0, 0.0)
+    unit: str | None = None
 
 
 @dataclass

@@ -20,3 +20,12 @@ def run_cli_in(folder: Path, argv: list[str]) -> tuple[int, str, str]:
     finally:
         os.chdir(old)
     return rc, out.getvalue(), err.getvalue()
+
+
+def run_main(capsys, argv: list[str]) -> tuple[int, str, str]:
+    """``optdesign *argv`` in-process, its output taken by pytest's ``capsys``: (exit status, stdout, stderr)."""
+    from optdesign.cli import main
+
+    rc = main(argv)
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err

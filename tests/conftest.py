@@ -1,16 +1,91 @@
+"""Shared test inputs: the paths of the configs, the paper's config (parsed and
+as a raw mapping), edited copies of YAML files, and one small batch run
+twice (``--jobs 1`` and ``--jobs 2``) for the batch tests.
+
+Test modules import the plain names (``from conftest import DATA``) where
+they need them at import time, and take the fixtures otherwise.
+"""
+from __future__ import annotations
+
 import os
 from pathlib import Path
 
 import pytest
+import yaml
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
+#: small configs and batch files of the tests
+DATA = Path(__file__).resolve().parent / "data"
+#: the 3-P(4S) paper's setup, every value annotated
+PAPER = CONFIGS / "p4s_paper.yaml"
+#: a tiny 3-P(4S) optimization for the batch tests (seconds per run)
+BATCH_SMALL = DATA / "batch_small.yaml"
+#: the fields of a batch row that must agree exactly between two runs of the
+#: same task, whatever the backend or the number of workers
+SAME_FIELDS = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
+               "dynamic", "stiffness", "isotropy", "evaluations")
+
+
+def load_paper_config():
+    """The paper's config, parsed (a new object on each call)."""
+    from optdesign.config import load_config
+
+    return load_config(PAPER)
+
+
+def paper_data() -> dict:
+    """The paper's config as the raw YAML mapping (a new one on each call)."""
+    return yaml.safe_load(PAPER.read_text())
+
+
+def edited_text(text: str, replacements: dict[str, str]) -> str:
+    """``text`` with each ``old -> new`` of ``replacements`` applied in order;
+    an ``old`` that does not occur fails the test (an edit must not be a no-op)."""
+    for old, new in replacements.items():
+        assert old in text, f"{old!r} not in the text to edit"
+        text = text.replace(old, new)
+    return text
 
 
 @pytest.fixture
 def paper_config():
-    from optdesign.config import load_config
+    return load_paper_config()
 
-    return load_config(CONFIGS / "p4s_paper.yaml")
+
+@pytest.fixture
+def edited_copy(tmp_path):
+    """``edited_copy(src, {old: new, ...}, name)``: a copy of the file ``src``
+    with the edits of :func:`edited_text`, written as ``tmp_path / name``."""
+    def make(src: str | os.PathLike, replacements: dict[str, str], name: str) -> Path:
+        out = tmp_path / name
+        out.write_text(edited_text(Path(src).read_text(), replacements))
+        return out
+
+    return make
+
+
+@pytest.fixture
+def write_yaml(tmp_path):
+    """``write_yaml(data, name)``: ``yaml.safe_dump(data)`` written as ``tmp_path / name``."""
+    def make(data, name: str) -> Path:
+        out = tmp_path / name
+        out.write_text(yaml.safe_dump(data))
+        return out
+
+    return make
+
+
+@pytest.fixture(scope="session")
+def small_batches(tmp_path_factory):
+    """The same two tasks of ``batch_small.yaml`` (seeds 1 and 2) run with
+    --jobs 1 and with --jobs 2: (tasks, root, rows of jobs1, rows of jobs2)."""
+    from optdesign.batch import plan, run_batch
+
+    root = tmp_path_factory.mktemp("batches")
+    tasks = plan([str(BATCH_SMALL)], 2)
+    rows1 = run_batch(tasks, str(root / "jobs1"), jobs=1)
+    rows2 = run_batch(tasks, str(root / "jobs2"), jobs=2)
+    return tasks, root, rows1, rows2

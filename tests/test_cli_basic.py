@@ -7,20 +7,15 @@ import json
 import numpy as np
 import pytest
 
-from optdesign.cli import build_parser, main
+from optdesign.cli import build_parser
 from optdesign.mechanisms import get
 
-from conftest import CONFIGS
+from cli_helpers import run_main
+from conftest import PAPER as PAPER_YAML
 
-PAPER = str(CONFIGS / "p4s_paper.yaml")
+PAPER = str(PAPER_YAML)
 P4S = get("p4s")
 BEFORE = dict(r_a=0.25, r_b=0.67, L=0.38, d=0.12, phi=np.radians(30.0))
-
-
-def _run(capsys, args):
-    rc = main(args)
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
 
 
 def test_help_lists_the_basic_commands():
@@ -30,30 +25,30 @@ def test_help_lists_the_basic_commands():
 
 
 def test_ik_and_fk_round_trip(capsys):
-    rc, out, err = _run(capsys, ["ik", PAPER, "--design", "before", "0.02", "0.01", "0.576", "--json"])
+    rc, out, err = run_main(capsys, ["ik", PAPER, "--design", "before", "0.02", "0.01", "0.576", "--json"])
     assert rc == 0 and err == ""
     rec = json.loads(out)
     assert rec["reachable"] is True and rec["design"] == "before"
     q = [rec["output"][k] for k in ("l1", "l2", "l3")]
     np.testing.assert_allclose(q, P4S(**BEFORE).inverse(np.array([[0.02, 0.01, 0.576]]))[0], rtol=1e-15)
-    rc, out, _ = _run(capsys, ["fk", PAPER, "--design", "before", *map(repr, q), "--json"])
+    rc, out, _ = run_main(capsys, ["fk", PAPER, "--design", "before", *map(repr, q), "--json"])
     assert rc == 0
     x = json.loads(out)["output"]
     np.testing.assert_allclose([x["x"], x["y"], x["z"]], [0.02, 0.01, 0.576], atol=1e-12)
 
 
 def test_ik_plain_text(capsys):
-    rc, out, _ = _run(capsys, ["ik", PAPER, "--design", "before", "0", "0", "0.592"])
+    rc, out, _ = run_main(capsys, ["ik", PAPER, "--design", "before", "0", "0", "0.592"])
     assert rc == 0
     # Table 1 pose 1 with the before dimensions: 0.4316 m (the table prints 0.42)
     assert out.strip() == "l1 = 0.431582777507  l2 = 0.431582777507  l3 = 0.431582777507"
 
 
 def test_ik_unreachable_pose(capsys):
-    rc, out, err = _run(capsys, ["ik", PAPER, "0", "0", "3"])
+    rc, out, err = run_main(capsys, ["ik", PAPER, "0", "0", "3"])
     assert rc == 1
     assert out.startswith("unreachable")
-    rc, out, _ = _run(capsys, ["fk", PAPER, "--json", "0", "0", "5"])
+    rc, out, _ = run_main(capsys, ["fk", PAPER, "--json", "0", "0", "5"])
     assert rc == 1
     assert json.loads(out)["reachable"] is False and json.loads(out)["output"]["x"] is None
 
@@ -66,7 +61,7 @@ def test_ik_unreachable_pose(capsys):
     (["evaluate", PAPER, "--design", "middle"], "no design named 'middle'"),
 ])
 def test_usage_errors_one_line(capsys, args, words):
-    rc, out, err = _run(capsys, args)
+    rc, out, err = run_main(capsys, args)
     assert rc == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("optdesign: error: ") and words in lines[0]
@@ -74,7 +69,7 @@ def test_usage_errors_one_line(capsys, args, words):
 
 
 def test_evaluate_table(capsys):
-    rc, out, err = _run(capsys, ["evaluate", PAPER])
+    rc, out, err = run_main(capsys, ["evaluate", PAPER])
     assert rc == 0 and err == ""
     assert "121 points" in out
     rows = {tuple(c.strip() for c in line.strip("|").split("|")[:2]): line for line in out.splitlines() if line.startswith("| ")}
@@ -84,7 +79,7 @@ def test_evaluate_table(capsys):
 
 
 def test_evaluate_one_design_json(capsys):
-    rc, out, _ = _run(capsys, ["evaluate", PAPER, "--design", "after", "--json"])
+    rc, out, _ = run_main(capsys, ["evaluate", PAPER, "--design", "after", "--json"])
     assert rc == 0
     d = json.loads(out)["designs"]
     assert list(d) == ["after"]
@@ -93,7 +88,7 @@ def test_evaluate_one_design_json(capsys):
 
 
 def test_atlas_writes_csv_and_pngs(tmp_path, capsys):
-    rc, out, err = _run(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path)])
+    rc, out, err = run_main(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path)])
     assert rc == 0 and err == ""
     folder = tmp_path / "p4s_paper-after"
     with open(folder / "local_indices.csv") as f:
@@ -118,7 +113,7 @@ def test_atlas_writes_csv_and_pngs(tmp_path, capsys):
 
 
 def test_atlas_resolution_and_no_plots(tmp_path, capsys):
-    rc, _, _ = _run(capsys, ["atlas", PAPER, "--design", "before", "--out", str(tmp_path), "--resolution", "5", "--no-plots"])
+    rc, _, _ = run_main(capsys, ["atlas", PAPER, "--design", "before", "--out", str(tmp_path), "--resolution", "5", "--no-plots"])
     assert rc == 0
     folder = tmp_path / "p4s_paper-before"
     with open(folder / "local_indices.csv") as f:

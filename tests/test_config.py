@@ -8,17 +8,16 @@ import math
 import subprocess
 import sys
 
-
 import pytest
 import yaml
 
-from optdesign.cli import main
+from optdesign.evaluate import build
 from optdesign.config import ConfigError, load_config, parse_config
 
-from conftest import CONFIGS, ROOT
+from cli_helpers import run_main
+from conftest import PAPER, ROOT, load_paper_config, paper_data
 
-PAPER = CONFIGS / "p4s_paper.yaml"
-BASE = yaml.safe_load(PAPER.read_text())
+BASE = paper_data()
 
 
 # ----------------------------------------------------------------------------- the paper's config
@@ -42,7 +41,7 @@ def test_paper_config_values(paper_config):
         "isotropy": ("isotropy", "frobenius", "min")}
     assert c.reference["before"]["dynamic"] == 29.9205
     assert c.optimizer.population == 50 and c.optimizer.generations == 100 and c.optimizer.elites == 2
-    m = c.build("after")
+    m = build(c, "after")
     assert float(m.r_a) == 0.21 and float(m.m_slider) == 2.57
 
 
@@ -64,7 +63,7 @@ indices: {dynamic: {}, iso: {kind: isotropy}}
     assert c.design("initial")["r_b"] == pytest.approx(0.67)
     assert c.design("initial")["phi"] == 0.5
     assert c.parameters == {}                                 # paper's masses by default
-    assert float(c.build("initial").m_platform) == 4.16
+    assert float(build(c, "initial").m_platform) == 4.16
     assert c.indices["iso"].convention == "frobenius"         # the default convention
     assert c.indices["dynamic"].kind == "dynamic"
     assert c.workspace.radius == 0.04 and c.workspace.points == 64 and c.workspace.seed == 3
@@ -121,12 +120,6 @@ MISTAKES = [
 ]
 
 
-def _run(capsys, args):
-    rc = main(args)
-    cap = capsys.readouterr()
-    return rc, cap.out, cap.err
-
-
 def _check_one_line(err, path, keypath, words):
     assert "Traceback" not in err
     lines = err.strip().splitlines()
@@ -140,10 +133,9 @@ def _check_one_line(err, path, keypath, words):
 
 
 @pytest.mark.parametrize("name,data,keypath,words", MISTAKES, ids=[m[0] for m in MISTAKES])
-def test_mistakes_through_validate_config(tmp_path, capsys, name, data, keypath, words):
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    rc, out, err = _run(capsys, ["validate-config", str(path)])
+def test_mistakes_through_validate_config(write_yaml, capsys, name, data, keypath, words):
+    path = write_yaml(data, f"{name}.yaml")
+    rc, out, err = run_main(capsys, ["validate-config", str(path)])
     assert rc == 2
     _check_one_line(err, path, keypath, words)
     assert out == ""
@@ -163,27 +155,26 @@ FILE_MISTAKES = [
 def test_file_mistakes(tmp_path, capsys, name, content, words):
     path = tmp_path / f"{name}.yaml"
     path.write_bytes(content)
-    rc, out, err = _run(capsys, ["validate-config", str(path)])
+    rc, out, err = run_main(capsys, ["validate-config", str(path)])
     assert rc == 2
     _check_one_line(err, path, "", words)
 
 
 def test_file_not_found_and_directory(tmp_path, capsys):
     missing = tmp_path / "nope.yaml"
-    rc, _, err = _run(capsys, ["validate-config", str(missing)])
+    rc, _, err = run_main(capsys, ["validate-config", str(missing)])
     assert rc == 2
     _check_one_line(err, missing, "", "file not found")
-    rc, _, err = _run(capsys, ["validate-config", str(tmp_path)])
+    rc, _, err = run_main(capsys, ["validate-config", str(tmp_path)])
     assert rc == 2
     _check_one_line(err, tmp_path, "", "directory")
 
 
 @pytest.mark.parametrize("command", [["evaluate"], ["atlas"], ["ik", "--design", "after"]])
-def test_other_commands_report_config_mistakes_the_same_way(tmp_path, capsys, command):
-    path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump(_set(["design_variables", "r_a", "bounds"], [0.29, 0.21])))
+def test_other_commands_report_config_mistakes_the_same_way(write_yaml, capsys, command):
+    path = write_yaml(_set(["design_variables", "r_a", "bounds"], [0.29, 0.21]), "bad.yaml")
     extra = ["0", "0", "0.57"] if command[0] == "ik" else []
-    rc, _, err = _run(capsys, [command[0], str(path), *command[1:], *extra])
+    rc, _, err = run_main(capsys, [command[0], str(path), *command[1:], *extra])
     assert rc == 2
     _check_one_line(err, path, "design_variables.r_a.bounds", "above upper")
 
@@ -207,14 +198,13 @@ def test_real_process_exit_status_and_one_line(tmp_path, content, words):
 
 
 def test_validate_config_ok(capsys):
-    rc, out, err = _run(capsys, ["validate-config", str(PAPER)])
+    rc, out, err = run_main(capsys, ["validate-config", str(PAPER)])
     assert rc == 0 and err == ""
     assert "ok" in out and "121 points" in out and "free variables: r_a, r_b, phi" in out
 
 
-def test_load_config_raises_config_error_with_path(tmp_path):
-    path = tmp_path / "x.yaml"
-    path.write_text(yaml.safe_dump(_set(["indices", "dynamic", "kind"], "dynamo")))
+def test_load_config_raises_config_error_with_path(write_yaml):
+    path = write_yaml(_set(["indices", "dynamic", "kind"], "dynamo"), "x.yaml")
     with pytest.raises(ConfigError) as exc:
         load_config(path)
     assert exc.value.source == str(path)
@@ -236,7 +226,7 @@ def test_joint_stiffness_reaches_the_stiffness_index():
         parse_config(yaml.safe_dump(d))
     from optdesign.evaluate import evaluate
 
-    base = load_config(PAPER)
+    base = load_paper_config()
     ev1 = evaluate(base, [base.design("after")])
     ev2 = evaluate(c, [c.design("after")])
     assert ev2.summary["stiffness"]["mean"][0] == pytest.approx(2.0 * ev1.summary["stiffness"]["mean"][0], rel=1e-12)

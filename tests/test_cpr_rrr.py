@@ -1,7 +1,6 @@
 """2-CPR/RRR (seed paper 002): kinematics of both input types against finite
 differences, the paper's forward Jacobian and Hessian (eq. 15-18, 21-24),
 automatic differentiation, and screw theory (eq. 1-3)."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +10,12 @@ from hypothesis import strategies as st
 
 from optdesign import screws as sc
 from optdesign.mechanisms import get
-from optdesign.mechanisms.cpr_rrr import LINEAR, ROTARY, motion_profile, paper_motion, plot_motion_example
+from optdesign.mechanisms.cpr_rrr import LINEAR, ROTARY
+from optdesign.studies.cpr_rrr_motion import motion_profile, paper_motion, plot_motion_example
 
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "cpr_rrr.yaml"
+from conftest import CONFIGS, edited_text
+
+CONFIG = CONFIGS / "cpr_rrr.yaml"
 DESIGN = dict(n=0.1, f=0.02, w=0.03, l1=0.2, l2=0.2)
 RNG = np.random.default_rng(3)
 
@@ -284,7 +286,7 @@ def test_config_evaluates_and_linear_inputs_are_isotropic():
     # a taller design (larger n) is more isotropic and has less manipulability
     assert res["tall"]["isotropy"]["mean"] < res["default"]["isotropy"]["mean"]
     assert res["tall"]["manipulability"]["mean"] < res["default"]["manipulability"]["mean"]
-    text = CONFIG.read_text().replace("input_type: 0", "input_type: 1")
+    text = edited_text(CONFIG.read_text(), {"input_type: 0": "input_type: 1"})
     lin = evaluate_named(parse_config(text, "lin.yaml"))
     for rec in lin.values():
         for k in ("isotropy", "dexterity", "manipulability"):

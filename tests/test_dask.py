@@ -18,10 +18,7 @@ pytest.importorskip("distributed", reason="the dask extra is not installed")
 
 from optdesign.batch import connect_dask, plan, run_task  # noqa: E402
 
-DATA = Path(__file__).parent / "data"
-#: result fields that must agree exactly between backends (not wall times or folders)
-SAME = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
-        "dynamic", "stiffness", "isotropy", "evaluations")
+from conftest import BATCH_SMALL, SAME_FIELDS as SAME  # noqa: E402
 
 
 def _free_port() -> int:
@@ -96,12 +93,11 @@ def _running_with_checkpoint(out: Path) -> list[Path]:
     return busy
 
 
-def test_dask_batch_survives_a_killed_worker(cluster, tmp_path):
+def test_dask_batch_survives_a_killed_worker(cluster, tmp_path, edited_copy):
     address, procs = cluster
-    cfg = tmp_path / "slow.yaml"
     # a little longer than the other tests' runs, so that a worker is caught mid-run
     # (checkpoint after every generation, so that it has one when it is caught)
-    cfg.write_text((DATA / "batch_small.yaml").read_text().replace("generations: 5", "generations: 30, checkpoint_interval: 0"))
+    cfg = edited_copy(BATCH_SMALL, {"generations: 5": "generations: 30, checkpoint_interval: 0"}, "slow.yaml")
     out = tmp_path / "runs"
     cmd = [sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--out", str(out),
            "--backend", "dask", "--scheduler", address, "--timeout", "30"]
@@ -155,7 +151,7 @@ def test_dask_errors_are_one_line(tmp_path):
     from optdesign.cli import main
 
     port = _free_port()        # nothing listens there
-    rc = main(["batch", str(DATA / "batch_small.yaml"), "--out", str(tmp_path), "--backend", "dask",
+    rc = main(["batch", str(BATCH_SMALL), "--out", str(tmp_path), "--backend", "dask",
                "--scheduler", f"tcp://127.0.0.1:{port}", "--timeout", "1"])
     assert rc == 2
     assert not any(tmp_path.iterdir())          # nothing was run

@@ -12,7 +12,7 @@ from described_helpers import CASES, description
 
 from optdesign import fast
 from optdesign.config import IndexSpec, load_config
-from optdesign.evaluate import evaluate, workspace_of
+from optdesign.evaluate import build, evaluate, workspace_of
 from optdesign.workspace import Workspace
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,7 +79,7 @@ def _random_designs(cfg, rng, D):
                                          ("sps_s_legs.yaml", 0.2)])
 def test_configs_all_index_kinds(name, spread):
     cfg = load_config(ROOT / "configs" / name)
-    cfg = _with_indices(cfg, dynamic=cfg.build(next(iter(cfg.designs))).description.has_dynamics)
+    cfg = _with_indices(cfg, dynamic=build(cfg, next(iter(cfg.designs))).description.has_dynamics)
     rng = np.random.default_rng(5)
     D = 8
     if spread is None:
@@ -123,7 +123,7 @@ def test_points_handed_to_lapack_and_unreachable_points():
     g = np.linspace(-0.6, 0.6, 61)
     X = np.stack(np.meshgrid(g, [0.0, 0.013], np.linspace(-0.9, -0.1, 41), indexing="ij"), -1).reshape(-1, 3)
     ws = Workspace(spec=cfg.workspace, names=("x", "y", "z"), X=X)
-    mech = cfg.build("reference")
+    mech = build(cfg, "reference")
     codes = reach_codes(mech, X)
     assert (codes == 0).sum() > 100 and (codes == 2).sum() > 3 and (codes == 1).sum() > 1000
     _compare(cfg, {"R": np.array([0.2, 0.21]), "r": np.array([0.05, 0.05]), "L_a": np.array([0.25, 0.26]),
@@ -153,7 +153,7 @@ def test_max_cond_and_unsupported_requests():
     from optdesign.mechanisms.described.compiled import IndexRequest
 
     cfg = load_config(ROOT / "configs" / "gough_stewart.yaml")
-    mech = cfg.build("reference")
+    mech = build(cfg, "reference")
     X = workspace_of(cfg).X
     s, reach = mech.global_statistics([IndexRequest("d", "dexterity", "plain", ())], X, want_max_cond=True)
     from optdesign.indices import cond_2

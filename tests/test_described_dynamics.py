@@ -11,6 +11,7 @@ import pytest
 from described_helpers import CASES, mechanism, random_poses
 
 from optdesign.config import load_config
+from optdesign.evaluate import build
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -46,13 +47,13 @@ def test_dynamics_equal_the_casadi_route(kind, ptype):
 
 def _reference(name):
     cfg = load_config(ROOT / "configs" / name)
-    return cfg.build("reference")
+    return build(cfg, "reference")
 
 
 @pytest.mark.parametrize("name", ["gough_stewart.yaml", "delta.yaml"])
 def test_inverse_dynamics_against_mujoco(name):
     pytest.importorskip("mujoco")
-    from optdesign.validation.mujoco_described import inverse_dynamics, smooth_trajectory
+    from optdesign.mechanisms.described.mujoco import inverse_dynamics, smooth_trajectory
 
     mech = _reference(name)
     t = np.linspace(0.0, 1.0, 41)
@@ -73,7 +74,7 @@ def test_energy_balance_along_a_trajectory(name):
     """Power of the actuator forces = d/dt (T + V), with MuJoCo's energies at
     t +- h (central differences) and our forces and actuator rates at t."""
     pytest.importorskip("mujoco")
-    from optdesign.validation.mujoco_described import DescribedModel, energies, smooth_trajectory
+    from optdesign.mechanisms.described.mujoco import DescribedModel, energies, smooth_trajectory
 
     mech = _reference(name)
     model = DescribedModel(mech)

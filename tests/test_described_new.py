@@ -11,14 +11,14 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from optdesign.config import load_config
-from optdesign.evaluate import workspace_of
+from optdesign.evaluate import build, workspace_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _load(name):
     cfg = load_config(ROOT / "configs" / name)
-    return cfg, cfg.build("reference"), workspace_of(cfg).X
+    return cfg, build(cfg, "reference"), workspace_of(cfg).X
 
 
 # ---------------------------------------------------------------------- Gough-Stewart

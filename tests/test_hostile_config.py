@@ -21,11 +21,10 @@ from pathlib import Path
 import pytest
 import yaml
 from cli_helpers import run_cli_in
+from conftest import paper_data
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-
-ROOT = Path(__file__).resolve().parents[1]
-BASE = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
+BASE = paper_data()
 COMMANDS = (["validate-config"], ["evaluate"], ["evaluate", "--json"], ["atlas", "--no-plots"], ["reproduce"])
 # commands that would run long on a valid config: only for files that cannot be valid
 WHOLE_FILE_COMMANDS = COMMANDS + (["run", "--quiet"], ["batch"], ["validate-dynamics", "--design", "before"])
@@ -172,9 +171,6 @@ def _dump(data) -> str:
     return yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
 
 
-_run_in = run_cli_in
-
-
 def _check_failure(rc, err, file_name, expect, what, tmp: Path):
     assert rc == 2, f"{what}: exit status {rc}, stderr {err!r}"
     assert err.endswith("\n") and err.count("\n") == 1, f"{what}: not one line: {err!r}"
@@ -194,14 +190,14 @@ def test_broken_config_gives_one_line_and_status_2(case, command):
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         (tmp / "c.yaml").write_text(_dump(data), encoding="utf-8")
-        rc, _, err = _run_in(tmp, command + ["c.yaml"])
+        rc, _, err = run_cli_in(tmp, command + ["c.yaml"])
         _check_failure(rc, err, "c.yaml", expect, what, tmp)
 
 
 def test_the_unbroken_config_passes(tmp_path):
     (tmp_path / "c.yaml").write_text(_dump(BASE), encoding="utf-8")
     for command in COMMANDS[:3]:
-        rc, out, err = _run_in(tmp_path, command + ["c.yaml"])
+        rc, out, err = run_cli_in(tmp_path, command + ["c.yaml"])
         assert rc == 0 and err == "", (command, err)
 
 
@@ -259,7 +255,7 @@ def test_whole_file_cases(tmp_path, label):
     # deep nesting takes PyYAML about a second to refuse: two commands suffice there
     commands = WHOLE_FILE_COMMANDS if label != "deep flow nesting" else (["validate-config"], ["run", "--quiet"])
     for command in commands:
-        rc, _, err = _run_in(tmp_path, command + ["c.yaml"])
+        rc, _, err = run_cli_in(tmp_path, command + ["c.yaml"])
         _check_failure(rc, err, "c.yaml", expect, f"{label} / {command}", tmp_path)
 
 
@@ -267,14 +263,14 @@ def test_missing_file_and_directory(tmp_path):
     (tmp_path / "adir").mkdir()
     for name in ("nothing.yaml", "adir"):
         for command in COMMANDS:
-            rc, _, err = _run_in(tmp_path, command + [name])
+            rc, _, err = run_cli_in(tmp_path, command + [name])
             assert rc == 2 and err.count("\n") == 1 and err.startswith(f"optdesign: error: {name}: ")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["adir"]
 
 
 def test_unknown_design_name(tmp_path):
     (tmp_path / "c.yaml").write_text(_dump(BASE), encoding="utf-8")
-    rc, _, err = _run_in(tmp_path, ["evaluate", "c.yaml", "--design", "nope"])
+    rc, _, err = run_cli_in(tmp_path, ["evaluate", "c.yaml", "--design", "nope"])
     _check_failure(rc, err, "c.yaml", "designs", "unknown design", tmp_path)
 
 

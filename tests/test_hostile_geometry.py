@@ -20,20 +20,22 @@ from __future__ import annotations
 
 import copy
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
+from optdesign.evaluate import build
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import evaluate, workspace_of
 from optdesign.mechanisms.p4s import E, P4S, Z
 from optdesign.workspace import Workspace
 
-ROOT = Path(__file__).resolve().parents[1]
-CFG = load_config(ROOT / "configs" / "p4s_paper.yaml")
+from cli_helpers import run_cli_in
+from conftest import load_paper_config, paper_data
+
+CFG = load_paper_config()
 ALL_INDICES = {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"},
                "isotropy": {"kind": "isotropy"}, "isotropy2": {"kind": "isotropy", "convention": "two_norm"},
                "stiff_sqrt": {"kind": "stiffness", "convention": "sqrt_lambda_min_K"},
@@ -42,7 +44,7 @@ ALL_INDICES = {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"
 
 
 def _config_with_all_indices():
-    raw = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
+    raw = paper_data()
     raw["indices"] = copy.deepcopy(ALL_INDICES)
     raw.pop("reference", None)
     raw["optimizer"].pop("weights", None)
@@ -98,7 +100,7 @@ def _warnings_are_errors():
 @pytest.mark.parametrize("design", ["before", "after"])
 @pytest.mark.parametrize("branch", [0, 1, 2])
 def test_exactly_singular_poses(design, branch):
-    mech = CFG_ALL.build(design)
+    mech = build(CFG_ALL, design)
     X = singular_poses(mech, branch, np.linspace(0.25, 0.6, 8))
     with np.errstate(all="ignore"):          # only to pick the test poses
         st_ = mech.branch_state(X)
@@ -128,7 +130,7 @@ def test_just_inside_and_just_outside_the_edge(eps):
     """Moving an exactly singular pose along the rod (outward) leaves the
     reachable region; moving it inward enters it with a large but finite
     condition number."""
-    mech = CFG_ALL.build("before")
+    mech = build(CFG_ALL, "before")
     X0 = singular_poses(mech, 0, [0.5])[0]
     n = np.sin(float(mech.phi)) * E[0] + np.cos(float(mech.phi)) * Z
     X = np.array([X0 + eps * n, X0 - eps * n, [0.0, 0.0, 0.57]])
@@ -200,35 +202,29 @@ def test_problem_flags_designs_at_the_corner_of_the_bounds():
 
 
 # ----------------------------------------------------------------------------- commands
-def _run(tmp: Path, argv):
-    from cli_helpers import run_cli_in
-
-    return run_cli_in(tmp, argv)
-
-
-def test_commands_at_the_edge_of_reachability(tmp_path):
+def test_commands_at_the_edge_of_reachability(tmp_path, write_yaml):
     """A workspace that runs past the reach of the designs (z up to 0.9 m) and
     poses exactly at a singularity: no warning, no traceback."""
-    raw = yaml.safe_load((ROOT / "configs" / "p4s_paper.yaml").read_text())
+    raw = paper_data()
     raw["workspace"] = {"type": "box", "axes": {"x": [-0.3, 0.3], "y": 0.0, "z": [0.3, 0.9]},
                         "sampling": "grid", "points_per_axis": 13}
-    (tmp_path / "edge.yaml").write_text(yaml.safe_dump(raw))
-    rc, out, err = _run(tmp_path, ["evaluate", "edge.yaml", "--json"])
+    write_yaml(raw, "edge.yaml")
+    rc, out, err = run_cli_in(tmp_path, ["evaluate", "edge.yaml", "--json"])
     assert rc == 0 and err == ""
     import json
 
     res = json.loads(out)
     for name, rec in res["designs"].items():
         assert 0 < rec["reachable_fraction"] < 1
-    rc, out, err = _run(tmp_path, ["atlas", "edge.yaml", "--design", "before", "--no-plots", "--resolution", "9"])
+    rc, out, err = run_cli_in(tmp_path, ["atlas", "edge.yaml", "--design", "before", "--no-plots", "--resolution", "9"])
     assert rc == 0 and err == ""
-    mech = CFG.build("before")
+    mech = build(CFG, "before")
     X = singular_poses(mech, 0, [0.3])[0]
-    rc, out, err = _run(tmp_path, ["ik", "edge.yaml", "--design", "before", *map(repr, X.tolist())])
+    rc, out, err = run_cli_in(tmp_path, ["ik", "edge.yaml", "--design", "before", *map(repr, X.tolist())])
     assert rc == 0 and err == "" and "l1" in out
-    rc, out, err = _run(tmp_path, ["ik", "edge.yaml", "--design", "before", "0", "0", "5"])
+    rc, out, err = run_cli_in(tmp_path, ["ik", "edge.yaml", "--design", "before", "0", "0", "5"])
     assert rc == 1 and err == "" and "unreachable" in out
-    rc, out, err = _run(tmp_path, ["fk", "edge.yaml", "--design", "before", "0", "0", "5"])
+    rc, out, err = run_cli_in(tmp_path, ["fk", "edge.yaml", "--design", "before", "0", "0", "5"])
     assert rc in (0, 1) and err == ""
 
 

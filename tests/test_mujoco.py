@@ -13,24 +13,19 @@ from hypothesis import assume, given, settings, strategies as st
 mujoco = pytest.importorskip("mujoco")
 
 from optdesign.mechanisms.p4s import P4S  # noqa: E402
-from optdesign.validation.mujoco_p4s import (  # noqa: E402
+from optdesign.mechanisms.p4s.mujoco import (  # noqa: E402
     P4SModel, inverse_dynamics, large_trajectory, paper_trajectory, simulate,
 )
+
+from conftest import load_paper_config  # noqa: E402
 
 REL_TOL = 1e-8          # inverse dynamics: of the peak force
 TRACK_PAPER_UM = 0.5    # simulation, paper path, 0.1 s (measured 0.13 um)
 TRACK_LARGE_UM = 1.0    # simulation, large path, 0.3 s (measured below 0.8 um over 1 s)
 
 
-def _paper():
-    from optdesign.config import load_config
-    from pathlib import Path
-
-    return load_config(Path(__file__).resolve().parents[1] / "configs" / "p4s_paper.yaml")
-
-
 def _mech(cfg, name, **change):
-    kw = cfg.mechanism_kwargs(cfg.design(name))
+    kw = {**cfg.parameters, **cfg.design(name)}
     kw.update(change)
     return P4S(**kw)
 
@@ -59,7 +54,7 @@ def test_inverse_dynamics_matches_mujoco(paper_config, design, traj, t_end):
        xy=st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), z=st.floats(0.52, 0.62),
        v=st.tuples(*[st.floats(-1.0, 1.0)] * 3), a=st.tuples(*[st.floats(-50.0, 50.0)] * 3))
 def test_inverse_dynamics_random_states(r_a, r_b, phi, xy, z, v, a):
-    mech = _mech(_paper(), "before", r_a=r_a, r_b=r_b, phi=np.radians(phi))
+    mech = _mech(load_paper_config(), "before", r_a=r_a, r_b=r_b, phi=np.radians(phi))
     X = np.array([[xy[0], xy[1], z]])
     assume(bool(mech.reachable(X)[0]))
     r = inverse_dynamics(mech, X, np.array([v]), np.array([a]))
@@ -124,7 +119,7 @@ def test_validate_dynamics_command(tmp_path, monkeypatch, capsys):
 
     from optdesign.cli import main
 
-    cfg = str(_paper().source)
+    cfg = str(load_paper_config().source)
     monkeypatch.chdir(tmp_path)
     rc = main(["validate-dynamics", cfg, "--design", "after", "--duration", "0.02",
                "--large-duration", "0.05", "--points", "5", "--out", "v"])

@@ -8,8 +8,8 @@ from numeric_helpers import central_jacobian
 
 from optdesign.indices import local_index
 from optdesign.mechanisms import get
-from optdesign.mechanisms.sps_s import (euler_rate_map, log_misfit, paper_ranges, paper_targets, rpy,
-                                        symbolic_model)
+from optdesign.mechanisms.sps_s import euler_rate_map, rpy, symbolic_model
+from optdesign.studies.sps_s_paper import log_misfit, paper_ranges, paper_targets
 
 DEG = np.pi / 180
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from numeric_helpers import central_jacobian
 
+from optdesign.evaluate import build
 from optdesign.mechanisms import get
 from optdesign.mechanisms.ups_upr_s import (PAPER_TABLE1, PAPER_TABLE2, solve_all,
                                             symbolic_model)
@@ -231,7 +232,7 @@ def test_configs_evaluate_and_atlas(tmp_path):
     # det J keeps one sign on a fine grid of it
     g = np.linspace(-0.5, 0.5, 101)
     X = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
-    assert np.max(np.linalg.det(opt.build("paper").jacobian(X))) < 0
+    assert np.max(np.linalg.det(build(opt, "paper").jacobian(X))) < 0
 
 
 def test_screw_theory_of_the_joints_two_rotations_and_no_independent_z_rotation():

@@ -18,9 +18,8 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ._common import design_names, open_config
+    from ._common import UsageError, design_names, open_config
     from ..atlas import write_atlas
-    from ..cli import UsageError
 
     cfg = open_config(args.config)
     if args.resolution is not None and not 2 <= args.resolution <= 2000:

@@ -39,7 +39,7 @@ def register(sub):
 
 def run(args) -> int:
     from ..batch import BackendError, plan, run_batch, summarize
-    from ..cli import UsageError
+    from ._common import UsageError
 
     if args.seeds is not None and args.seeds < 1:
         raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")

@@ -95,21 +95,29 @@ def _setup(cfg, D: int, N: int, seed: int = 0):
     return designs, Workspace(spec=cfg.workspace, names=("x", "y", "z"), X=X)
 
 
-def python_loop_rate(cfg, n: int) -> float:
-    """Points per second of a straightforward per-point loop (one design, one
-    point at a time through the mechanism's methods and the index functions)."""
+def _mechanism(cfg, designs, scalar: bool):
+    """The config's mechanism for the bench designs (first one if ``scalar``)."""
     import numpy as np
 
+    from ..evaluate import build
+
+    params = {k: dv.value for k, dv in cfg.design_variables.items()}
+    params.update({k: (float(v[0]) if scalar else np.asarray(v)[:, None]) for k, v in designs.items()})
+    return build(cfg, params)
+
+
+def python_loop_rate(cfg, n: int) -> float:
+    """Points per second of a straightforward per-point loop (one design, one
+    point at a time through the mechanism's numpy methods and the index functions)."""
+    import numpy as np
+
+    from .. import fast
     from ..indices import local_index
-    from ..mechanisms.p4s import P4S
 
     designs, ws = _setup(cfg, 1, n, seed=1)
-    params = dict(cfg.parameters)
-    params.update({k: dv.value for k, dv in cfg.design_variables.items()})
-    params.update({k: float(v[0]) for k, v in designs.items()})
-    mech = P4S(**params)
+    mech = _mechanism(cfg, designs, scalar=True)
     t = time.perf_counter()
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"), fast.disabled():
         for j in range(ws.n):
             x = ws.X[j:j + 1]
             if not mech.reachable(x)[0]:
@@ -122,13 +130,12 @@ def python_loop_rate(cfg, n: int) -> float:
 
 
 def local_rates(cfg, D: int, N: int, repeat: int, numpy_max: int) -> dict:
-    """Points per second of evaluate() on the numpy path and on the fast path
-    (and of the bare fused kernel call), D designs x N points."""
+    """Points per second of evaluate() on the numpy path and on the compiled
+    path (and of the mechanism's bare kernel call, where it offers one), D designs x N points."""
     import numpy as np
 
     from .. import fast
-    from ..evaluate import evaluate
-    from ..mechanisms.p4s import P4S
+    from ..evaluate import evaluate, index_requests
 
     designs, ws = _setup(cfg, D, N)
     out = {"designs": D, "points": N}
@@ -143,56 +150,59 @@ def local_rates(cfg, D: int, N: int, repeat: int, numpy_max: int) -> dict:
         evaluate(cfg, dn, wsn)
         best, med = _best(lambda: evaluate(cfg, dn, wsn), max(1, min(repeat, 3)))
     out["numpy"] = {"designs": Dn, "points": Nn, "seconds": best, "median_seconds": med, "points_per_s": Dn * Nn / best}
-    if not fast.available():
-        out["fast"] = None
-        out["fast_error"] = str(fast.import_error())
-        return out
+    mech = _mechanism(cfg, designs, scalar=False)
     fast.set_enabled(True)
     try:
         t = time.perf_counter()
-        ev = evaluate(cfg, designs, ws)            # first call: loads (or compiles) the kernels
+        answer = mech.global_statistics(index_requests(cfg), ws.X)   # loads (or compiles) the kernels
         first = time.perf_counter() - t
+        if answer is None:
+            out["fast"] = None
+            out["fast_error"] = f"mechanism {cfg.mechanism!r} has no compiled path here for these indices"
+            return out
+        ev = evaluate(cfg, designs, ws)
         best, med = _best(lambda: evaluate(cfg, designs, ws), repeat)
     finally:
         fast.set_enabled(None)
     out["fast"] = {"first_call_seconds": first, "seconds": best, "median_seconds": med, "points_per_s": D * N / best,
                    "reachable_fraction": float(np.mean(ev.reachable_fraction))}
     # the bare kernel (no dispatch, no LAPACK hand-off of ill-conditioned points)
-    params = dict(cfg.parameters)
-    params.update({k: dv.value for k, dv in cfg.design_variables.items()})
-    params.update({k: np.asarray(v)[:, None] for k, v in designs.items()})
-    P = fast.design_constants(P4S(**params))
-    Xc = np.ascontiguousarray(ws.X, dtype=float)
-    want = np.array([True, True, False, True, False])
-    k = fast.kernels()
-    codes = k.p4s_summary(P, Xc, want, False)[2]
-    best, med = _best(lambda: k.p4s_summary(P, Xc, want, False), repeat)
-    out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best,
-                     "lapack_fraction": float(np.mean(codes == 2))}
+    bare = getattr(mech, "bare_kernel", None)
+    if bare is not None:
+        call, lapack = bare(ws.X)
+        call()
+        best, med = _best(call, repeat)
+        out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best,
+                         "lapack_fraction": lapack}
     return out
 
 
-def fk_rates(N: int, repeat: int) -> dict:
-    """Poses per second of forward kinematics: numpy P4S.forward and the kernel."""
+def fk_rates(cfg, N: int, repeat: int) -> dict:
+    """Poses per second of forward kinematics through the public API: the numpy
+    model and the compiled path (the config's ``after`` design, else its first)."""
     import numpy as np
 
     from .. import fast
-    from ..mechanisms.p4s import P4S
+    from ..evaluate import build
 
-    mech = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=math.radians(35))
+    name = "after" if "after" in cfg.designs else next(iter(cfg.designs))
+    mech = build(cfg, name)
     rng = np.random.default_rng(2)
     X = np.c_[rng.uniform(-0.05, 0.05, N), rng.uniform(-0.05, 0.05, N), rng.uniform(0.55, 0.59, N)]
     Q = mech.inverse(X)
     Nn = min(N, 100_000)
-    best_np, _ = _best(lambda: mech.forward(Q[:Nn]), max(1, min(repeat, 3)))
-    out = {"poses": N, "numpy": {"poses": Nn, "seconds": best_np, "poses_per_s": Nn / best_np}}
-    if fast.available():
-        fast.set_enabled(True)
-        try:
-            P = fast.forward_p4s(mech, Q)
-            best, med = _best(lambda: fast.forward_p4s(mech, Q), repeat)
-        finally:
-            fast.set_enabled(None)
+    with fast.disabled():
+        best_np, _ = _best(lambda: mech.forward(Q[:Nn]), max(1, min(repeat, 3)))
+    out = {"poses": N, "design": name, "numpy": {"poses": Nn, "seconds": best_np, "poses_per_s": Nn / best_np}}
+    fast.set_enabled(True)
+    try:
+        P = mech.forward(Q)
+        with fast.disabled():
+            compiled = not np.array_equal(P[:100], mech.forward(Q[:100]), equal_nan=True)
+        best, med = _best(lambda: mech.forward(Q), repeat)
+    finally:
+        fast.set_enabled(None)
+    if compiled:
         out["fast"] = {"seconds": best, "median_seconds": med, "poses_per_s": N / best,
                        "max_error_m": float(np.max(np.abs(P - X)))}
     return out
@@ -233,15 +243,16 @@ def reproduce_time(min_points: int, pareto: bool = True) -> dict:
                 res["error"] = (p.stderr or p.stdout).strip().splitlines()[-1:] 
                 break
     t = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "import optdesign.cli, optdesign.evaluate, optdesign.fast as f; f.kernels()"],
-                   capture_output=True)
+    subprocess.run([sys.executable, "-c", "import optdesign.cli, optdesign.evaluate as e; "
+                    "from optdesign.commands._common import open_config as o; c = o(None); "
+                    "e.evaluate(c, [c.initial_design()])"], capture_output=True)
     res["startup_seconds"] = time.perf_counter() - t
     return res
 
 
 def run(args) -> int:
-    from ._common import open_config, table
-    from ..cli import UsageError
+    from ._common import UsageError, open_config
+    from ..tables import table
 
     if args.points < 1 or args.designs < 1 or args.loop_points < 1 or args.fk_poses < 1 or args.repeat < 1:
         raise UsageError("bench: --points, --designs, --loop-points, --fk-poses and --repeat must be positive")
@@ -256,7 +267,7 @@ def run(args) -> int:
     loop = python_loop_rate(cfg, args.loop_points)
     res["python_loop"] = {"points": args.loop_points, "points_per_s": loop}
     res["local"] = local_rates(cfg, args.designs, args.points, args.repeat, args.numpy_max)
-    res["fk"] = fk_rates(args.fk_poses, args.repeat)
+    res["fk"] = fk_rates(cfg, args.fk_poses, args.repeat)
     if not args.no_reproduce:
         res["reproduce"] = reproduce_time(args.reproduce_points)
     if args.json:
@@ -271,20 +282,21 @@ def run(args) -> int:
             ["numpy path (evaluate)", f"{loc['numpy']['designs']} x {loc['numpy']['points']}", f"{npr:,.0f}", "1"]]
     if loc.get("fast"):
         f = loc["fast"]["points_per_s"]
-        kr = loc["kernel"]["points_per_s"]
         rows.append(["fast path (evaluate)", f"{args.designs} x {args.points}", f"{f:,.0f}", f"{f / npr:,.0f}"])
+    if loc.get("kernel"):
+        kr = loc["kernel"]["points_per_s"]
         rows.append(["fused kernel alone", f"{args.designs} x {args.points}", f"{kr:,.0f}", f"{kr / npr:,.0f}"])
     print("\nlocal indices (dynamic, stiffness, isotropy) per workspace point, best of "
           f"{args.repeat}:")
     print(table(["path", "designs x points", "points/s", "vs numpy"], rows))
-    if loc.get("fast"):
+    if loc.get("kernel"):
         print(f"first fast call (kernel load or compile): {loc['fast']['first_call_seconds']:.2f} s; "
               f"points handed to LAPACK (cond(J) >= 1000): {100 * loc['kernel']['lapack_fraction']:.2f}%")
     fk = res["fk"]
-    rows = [["numpy P4S.forward", f"{fk['numpy']['poses']}", f"{fk['numpy']['poses_per_s']:,.0f}", "1", "-"]]
+    rows = [["numpy model forward", f"{fk['numpy']['poses']}", f"{fk['numpy']['poses_per_s']:,.0f}", "1", "-"]]
     if fk.get("fast"):
         ff = fk["fast"]
-        rows.append(["fast forward_p4s", f"{fk['poses']}", f"{ff['poses_per_s']:,.0f}",
+        rows.append(["compiled forward (public API)", f"{fk['poses']}", f"{ff['poses_per_s']:,.0f}",
                      f"{ff['poses_per_s'] / fk['numpy']['poses_per_s']:,.0f}", f"{ff['max_error_m']:.1e}"])
     print("\nforward kinematics:")
     print(table(["path", "poses", "poses/s", "vs numpy", "max error (m)"], rows))

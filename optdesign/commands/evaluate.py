@@ -17,7 +17,7 @@ def register(sub):
 
 def comparison_rows(cfg, results: dict) -> list[list[str]]:
     """Rows: design, index, mean, min, max, paper value, relative difference."""
-    from ._common import fmt
+    from ..tables import fmt
 
     rows = []
     for dname, rec in results.items():
@@ -33,7 +33,8 @@ def comparison_rows(cfg, results: dict) -> list[list[str]]:
 
 
 def run(args) -> int:
-    from ._common import design_names, open_config, table
+    from ._common import design_names, open_config
+    from ..tables import table
     from ..evaluate import evaluate_named, workspace_of
 
     cfg = open_config(args.config)

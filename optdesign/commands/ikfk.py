@@ -21,12 +21,13 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ._common import open_config
-    from ..cli import UsageError
+    from ._common import UsageError, open_config
 
     cfg = open_config(args.config)
     design = args.design or ("initial" if "initial" in cfg.designs else next(iter(cfg.designs)))
-    mech = cfg.build(design)
+    from ..evaluate import build
+
+    mech = build(cfg, design)
     n_in = mech.dof if args.kin == "ik" else mech.n_act
     names_in = mech.pose_names if args.kin == "ik" else mech.actuator_names
     names_out = mech.actuator_names if args.kin == "ik" else mech.pose_names

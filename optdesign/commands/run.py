@@ -21,8 +21,7 @@ def register(sub):
 
 
 def execute(args, after=None, cfg=None) -> int:
-    from ._common import open_config
-    from ..cli import UsageError
+    from ._common import UsageError, open_config
     from ..optimize.pipeline import Interrupted, Progress
     from ..optimize.runner import resume_run, start_run, summary_line
     from ..runs import RunFolderError
@@ -61,7 +60,7 @@ def execute(args, after=None, cfg=None) -> int:
 
 def run(args) -> int:
     if not args.config and not args.resume:
-        from ..cli import UsageError
+        from ._common import UsageError
 
         raise UsageError("run: expected a CONFIG file or --resume RUN_DIR")
     return execute(args)

@@ -23,7 +23,7 @@ def register(sub):
 
 def run(args) -> int:
     from ..batch import collect_folders, row_from_folder, summarize
-    from ..cli import UsageError
+    from ._common import UsageError
     from ..runs import RunFolderError
 
     try:

@@ -1,6 +1,7 @@
 """optdesign validate-dynamics CONFIG --design NAME [--out DIR]: our dynamics against MuJoCo.
 
-Runs the two comparisons of ``optdesign.validation.mujoco_p4s`` on the
+Runs the two comparisons of the mechanism's MuJoCo check (for the 3-P(4S)
+``optdesign.mechanisms.p4s.mujoco``) on the
 paper's path (x = y = 0.001 sin(40 pi t)) and on a larger one, prints the
 agreement numbers and writes ``forces.png`` (the actuator forces from our
 model and from MuJoCo, as the paper's figures 9 and 10), ``tracking.png``
@@ -31,7 +32,7 @@ def register(sub):
 
 
 def _check_args(args):
-    from ..cli import UsageError
+    from ._common import UsageError
 
     for name in ("duration", "large_duration"):
         v = getattr(args, name)
@@ -51,22 +52,26 @@ def run(args) -> int:
 
     import numpy as np
 
-    from ..cli import UsageError
     from ..io import atomic_write_bytes, atomic_write_json
-    from ._common import design_names, fmt, open_config, table
+    from ._common import UsageError, design_names, open_config
+    from ..tables import fmt, table
 
     _check_args(args)
     cfg = open_config(args.config)
-    if cfg.mechanism != "p4s":
-        raise UsageError(f"{cfg.source}: mechanism: validate-dynamics has a MuJoCo model of p4s only, got {cfg.mechanism!r}")
+    from ..evaluate import build, mechanism_class
+
+    check = mechanism_class(cfg).multibody_check
+    if check is None:
+        raise UsageError(f"{cfg.source}: mechanism: mechanism {cfg.mechanism!r} has no MuJoCo model to check against")
     design_names(cfg, [args.design])
     try:
         import mujoco  # noqa: F401
     except ImportError:
         raise UsageError("MuJoCo is not installed; install the validation extra: pip install 'optdesign[validation]'") from None
-    from ..validation import mujoco_p4s as mv
+    import importlib
 
-    mech = cfg.build(args.design)
+    mv = importlib.import_module(check)
+    mech = build(cfg, args.design)
     z = args.z if args.z is not None else 0.5 * sum(cfg.workspace.axes["z"])
     out = Path(args.out) if args.out else Path("validation") / args.design
     if out.exists() and not out.is_dir():
@@ -122,8 +127,9 @@ def run(args) -> int:
     atomic_write_bytes(out / "forces.png", _forces_figure(results, args.design))
     atomic_write_bytes(out / "tracking.png", _tracking_figure(results, args.design))
     atomic_write_json(out / "summary.json", summary)
-    atomic_write_bytes(out / "p4s.xml", mv.mjcf(mech).encode())
-    print(f"wrote {out / 'forces.png'}, {out / 'tracking.png'}, {out / 'summary.json'}, {out / 'p4s.xml'} (the MuJoCo model)")
+    model = out / f"{cfg.mechanism}.xml"
+    atomic_write_bytes(model, mv.mjcf(mech).encode())
+    print(f"wrote {out / 'forces.png'}, {out / 'tracking.png'}, {out / 'summary.json'}, {model} (the MuJoCo model)")
     return 0
 
 

@@ -35,10 +35,27 @@ def register(cls: type[Mechanism]) -> type[Mechanism]:
 _DESCRIBED: dict[str, type[Mechanism]] = {}
 
 
+class DescriptionError(ValueError):
+    """A mistake in a mechanism description: ``path`` (the config key path,
+    e.g. ``mechanism.legs[0].rod``) and a one-line ``message``."""
+
+    def __init__(self, path: str, message: str):
+        self.path = path
+        self.message = message
+        super().__init__(f"{path}: {message}")
+
+
 def register_described(cls: type[Mechanism]) -> type[Mechanism]:
     """Make a described mechanism's class available under ``cls.name``."""
     _DESCRIBED[cls.name] = cls
     return cls
+
+
+def describe(raw, label: str | None = None) -> type[Mechanism]:
+    """The class of a mechanism described as data (a config's ``mechanism:``
+    mapping, see docs/mechanisms-as-data.md), registered under a name derived
+    from its content.  Raises :class:`DescriptionError` naming the key."""
+    return importlib.import_module("optdesign.mechanisms.described").register_description(raw, label=label)
 
 
 def available() -> list[str]:
@@ -74,4 +91,4 @@ def get(name: str) -> type[Mechanism]:
     return _REGISTRY[name]
 
 
-__all__ = ["Mechanism", "register", "register_described", "available", "get"]
+__all__ = ["Mechanism", "DescriptionError", "register", "register_described", "describe", "available", "get"]

@@ -8,13 +8,67 @@ then ``inverse(X)`` with ``X`` of shape ``(N, dof)`` returns ``(D, N, n_act)``.
 """
 from __future__ import annotations
 
-from typing import Any, ClassVar, Mapping
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 
+from .params import Param, derived_tables
+
+__all__ = ["Mechanism", "IndexRequest", "ExtraObjective", "Param"]
+
+
+@dataclass(frozen=True)
+class IndexRequest:
+    """A local index asked of a mechanism's compiled path: plain data, no config.
+
+    ``name`` keys the answer; ``kind`` and ``convention`` are those of
+    :mod:`optdesign.indices`; ``options`` are sorted ``(key, value)`` pairs
+    (for example ``(("k", 1.0),)``)."""
+
+    name: str
+    kind: str
+    convention: str | None = None
+    options: tuple = ()
+
+    def option_dict(self) -> dict:
+        return dict(self.options)
+
+
+@dataclass(frozen=True)
+class ExtraObjective:
+    """An objective beyond the performance indices (compactness, footprint,
+    moving mass), declared by the mechanism that knows what it means.
+
+    ``func`` maps the design parameters (a dict of arrays (D,), SI) to (D,);
+    ``parameters`` names the design parameters it reads (its range over a
+    design box is taken at the box's corners, so it must be monotone in each)."""
+
+    func: Callable[[Mapping[str, np.ndarray]], np.ndarray]
+    sense: str
+    description: str
+    unit: str
+    parameters: tuple[str, ...]
+
 
 class Mechanism:
-    """Base class: geometry and physics of one parallel mechanism."""
+    """Base class: geometry and physics of one parallel mechanism.
+
+    A subclass declares its parameters once in ``parameters`` (a tuple of
+    :class:`~optdesign.mechanisms.params.Param`); the per-purpose tables below
+    are derived from it."""
+
+    #: every parameter, declared once (kind, unit, range, default, named choices)
+    parameters: ClassVar[tuple[Param, ...]] = ()
+    #: objectives beyond the indices that ``optimizer.extra_objectives`` may name
+    extra_objectives: ClassVar[Mapping[str, ExtraObjective]] = {}
+    #: a starting config for ``optdesign init``: ``design_variables`` (value,
+    #: bounds, unit as a config writes them), ``parameters`` (overrides of the
+    #: defaults), ``workspace`` and ``indices`` that suit the mechanism
+    example: ClassVar[Mapping] = {}
+    #: module of an independent multibody (MuJoCo) check of the dynamics, if any
+    #: (``optdesign validate-dynamics``)
+    multibody_check: ClassVar[str | None] = None
 
     #: registry name used in configs
     name: ClassVar[str] = ""
@@ -22,6 +76,7 @@ class Mechanism:
     pose_names: ClassVar[tuple[str, ...]] = ()
     #: actuator coordinate names, in order
     actuator_names: ClassVar[tuple[str, ...]] = ()
+    # derived from ``parameters`` (see __init_subclass__)
     #: design parameters (optimizable dimensions), SI
     design_parameters: ClassVar[tuple[str, ...]] = ()
     #: defaults for design parameters that a config may omit
@@ -36,8 +91,31 @@ class Mechanism:
     supported_indices: ClassVar[tuple[str, ...]] = ()
     #: which pose axes are angles (for unit display)
     angular_axes: ClassVar[tuple[str, ...]] = ()
+    #: SI unit of pose coordinates that are neither lengths nor angles ("1" for a sine)
+    pose_units: ClassVar[Mapping[str, str]] = {}
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if "parameters" in cls.__dict__:
+            for k, v in derived_tables(cls.parameters).items():
+                setattr(cls, k, v)
+
+    @classmethod
+    def param(cls, name: str) -> Param | None:
+        """The declaration of parameter ``name`` (None if it has none)."""
+        for p in cls.parameters:
+            if p.name == name:
+                return p
+        return None
 
     def __init__(self, **params: Any):
+        for k, v in list(params.items()):  # a switch may be given by its name
+            decl = type(self).param(k)
+            if decl is not None and decl.kind == "switch" and isinstance(v, str):
+                x, problem = decl.choice(v)
+                if problem:
+                    raise ValueError(f"{type(self).__name__}: {k}: {problem}")
+                params[k] = x
         unknown = set(params) - set(self.design_parameters) - set(self.fixed_parameters)
         if unknown:
             raise TypeError(f"{type(self).__name__}: unknown parameter(s) {', '.join(sorted(unknown))}")
@@ -62,11 +140,15 @@ class Mechanism:
         return None
 
     @classmethod
-    def check_parameters(cls, params: Mapping[str, float]) -> tuple[str, str] | None:
-        """Return (key, message) if a fixed parameter value is invalid (e.g. a mode
-        switch out of its range), else None.  ``params`` holds only the values the
-        config gives."""
-        return None
+    def pose_unit(cls, axis: str) -> str:
+        """SI unit of a pose coordinate: ``m``, ``rad`` or ``1``."""
+        return cls.pose_units.get(axis, "rad" if axis in cls.angular_axes else "m")
+
+    @classmethod
+    def actuator_unit(cls, params: Mapping[str, float]) -> str:
+        """SI unit of the actuator coordinates (``m`` for prismatic and struts,
+        ``rad`` for revolute inputs) given the fixed parameters (switches)."""
+        return "m"
 
     @property
     def dof(self) -> int:
@@ -99,6 +181,18 @@ class Mechanism:
         raise NotImplementedError(f"mechanism {self.name!r} has no dynamic model")
 
     # ------------------------------------------------------------------ indices
+    def global_statistics(self, requests: Sequence[IndexRequest], X: np.ndarray):
+        """The compiled path's answer for these requests over the points X (N, dof):
+        ``(summary, reachable)`` with ``summary[request.name]`` mapping ``mean``,
+        ``min``, ``max``, ``std`` and ``count`` to arrays (D,) (statistics over
+        the reachable points) and ``reachable`` (D, N), or None when this
+        mechanism has no compiled path here.  The summary may answer only some
+        of the requests (those its kernels compute); the caller
+        (:func:`optdesign.evaluate.evaluate`) runs the numpy path for the
+        others, with this reachable mask, which must equal the numpy model's
+        bitwise.  Every answer must equal the numpy path's to 1e-12 relative."""
+        return None
+
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
         """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
         (actuator-space mass matrix of the dynamic index)."""

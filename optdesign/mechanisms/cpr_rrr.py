@@ -55,21 +55,13 @@ Everything is batched over poses and (broadcast) designs.
 """
 from __future__ import annotations
 
-from typing import Mapping
-
 import numpy as np
 
 from . import register
 from .base import Mechanism
+from .params import Param
 
 ROTARY, LINEAR = 0, 1
-
-#: the paper's motion example (section 5): input displacements of the C slides,
-#: X = 10 sin(pi t / 10 + pi / 2), Y = 7.5 sin(pi t / 7.5), 25 s in 200 steps.
-#: The paper gives no units; we read mm and s (the Adams defaults).
-PAPER_MOTION = {"amplitude_x": 10e-3, "period_x": 20.0, "phase_x": np.pi / 2,
-                "amplitude_y": 7.5e-3, "period_y": 15.0, "phase_y": 0.0,
-                "duration": 25.0, "steps": 200}
 
 
 def _p(a, k: int) -> np.ndarray:
@@ -96,13 +88,36 @@ class CPR_RRR(Mechanism):
     name = "cpr_rrr"
     pose_names = ("x", "y")
     actuator_names = ("q1", "q2")  # per instance: ("theta2", "theta1") or ("m1", "m2")
-    design_parameters = ("n", "f", "w", "l1", "l2")
-    design_defaults = {"f": 0.02, "w": 0.02, "l1": 0.2, "l2": 0.2}
-    length_parameters = ("n", "l1", "l2")
-    fixed_parameters = {"input_type": 0.0, "rrr_base_x": -0.2, "rrr_base_y": -0.2,
-                        "rrr_attach_x": 0.0, "rrr_attach_y": 0.0, "elbow": 1.0, "k": 1.0}
-    positive_parameters = ("k",)
+    parameters = (
+        Param("n", "length", design=True, low=0.0, low_open=True, doc="height of the R1/R2 axes above the C axes"),
+        Param("f", "length", 0.02, design=True, doc="offset from the R2 axis to the platform point"),
+        Param("w", "length", 0.02, design=True, doc="offset from the R1 axis to the platform point"),
+        Param("l1", "length", 0.2, design=True, low=0.0, low_open=True, doc="first link of the RRR chain"),
+        Param("l2", "length", 0.2, design=True, low=0.0, low_open=True, doc="second link of the RRR chain"),
+        Param("input_type", "switch", "rotary", choices={"rotary": ROTARY, "linear": LINEAR},
+              doc="rotary inputs (the C angles theta2, theta1) or linear inputs (the C slides m1, m2)"),
+        Param("rrr_base_x", "length", -0.2, doc="RRR base joint, x"),
+        Param("rrr_base_y", "length", -0.2, doc="RRR base joint, y"),
+        Param("rrr_attach_x", "length", 0.0, doc="RRR platform attachment, x (platform frame)"),
+        Param("rrr_attach_y", "length", 0.0, doc="RRR platform attachment, y (platform frame)"),
+        Param("elbow", "switch", "plus", choices={"plus": 1.0, "minus": -1.0},
+              doc="RRR assembly mode: the sign of the elbow angle"),
+        Param("k", "stiffness", 1.0, low=0.0, low_open=True, doc="actuator stiffness of the stiffness index"),
+    )
     supported_indices = ("isotropy", "dexterity", "manipulability", "driving", "stiffness")
+
+    example = {  # configs/cpr_rrr_opt.yaml: rotary inputs, a 200 mm x 200 mm bed
+        "parameters": {"k": 1.0},
+        "design_variables": {"n": {"value": 0.1, "bounds": [0.03, 0.3]}, "f": {"value": 0.02, "bounds": [-0.05, 0.25]},
+                             "w": {"value": 0.02, "bounds": [-0.05, 0.25]}, "l1": {"value": 0.3}, "l2": {"value": 0.3}},
+        "workspace": {"type": "box", "axes": {"x": [0.0, 0.2], "y": [0.0, 0.2]}, "sampling": "grid", "step": 0.02},
+        "indices": {"dexterity": {"kind": "dexterity", "convention": "normalized"},
+                    "stiffness": {"kind": "stiffness", "convention": "lambda_min_K"}},
+    }
+
+    @classmethod
+    def actuator_unit(cls, params):
+        return "m" if float(params.get("input_type", ROTARY)) == LINEAR else "rad"
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -114,20 +129,6 @@ class CPR_RRR(Mechanism):
             raise ValueError(f"cpr_rrr: elbow must be +1 or -1, got {self.elbow}")
         self.kind = int(it[0])
         self.actuator_names = ("theta2", "theta1") if self.kind == ROTARY else ("m1", "m2")
-
-    @classmethod
-    def check_parameters(cls, params: Mapping[str, float]):
-        if "input_type" in params and params["input_type"] not in (ROTARY, LINEAR):
-            return "input_type", f"expected 0 (rotary inputs) or 1 (linear inputs), got {params['input_type']:g}"
-        if "elbow" in params and params["elbow"] not in (-1.0, 1.0):
-            return "elbow", f"expected +1 or -1 (the RRR assembly mode), got {params['elbow']:g}"
-        return None
-
-    @classmethod
-    def check_design(cls, design: Mapping[str, float]):
-        if "n" in design and design["n"] <= 0:
-            return "n", f"expected a positive height of the R1/R2 axes, got {design['n']:g}"
-        return None
 
     # ------------------------------------------------------------------ geometry
     def chain_state(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -297,47 +298,6 @@ class CPR_RRR(Mechanism):
         return (1, 1) if self.kind == ROTARY else (0, 0)
 
 
-# ---------------------------------------------------------------------- motion example
-def paper_motion(t: np.ndarray) -> dict[str, np.ndarray]:
-    """The input motion of section 5 (linear inputs = platform motion, eq. 21-22):
-    ``x = 10 sin(pi t / 10 + pi / 2)``, ``y = 7.5 sin(pi t / 7.5)`` (mm in the
-    paper, m here) and their exact time derivatives, each (len(t), 2)."""
-    t = np.asarray(t, dtype=float)
-    P = PAPER_MOTION
-    out = {"X": [], "V": [], "A": []}
-    for ax in ("x", "y"):
-        A0, w, ph = P[f"amplitude_{ax}"], 2 * np.pi / P[f"period_{ax}"], P[f"phase_{ax}"]
-        out["X"].append(A0 * np.sin(w * t + ph))
-        out["V"].append(A0 * w * np.cos(w * t + ph))
-        out["A"].append(-A0 * w * w * np.sin(w * t + ph))
-    return {k: np.stack(v, axis=-1) for k, v in out.items()}
-
-
-def motion_profile(t: np.ndarray, **design) -> dict[str, np.ndarray]:
-    """The motion example through both input types of one design.
-
-    Linear inputs (m1, m2) are the paper's inputs; the platform motion follows
-    from eq. 21-24 (forward map, J = I).  The rotary inputs that produce the
-    same platform motion come from the inverse kinematics, and their rates and
-    accelerations from qdot = J v and qdd = J a + c; the platform velocity and
-    acceleration are then recomputed from the rotary inputs with the paper's
-    forward maps (eq. 15-18), an independent route to the same curves.
-    """
-    lin = CPR_RRR(input_type=LINEAR, **design)
-    rot = CPR_RRR(input_type=ROTARY, **design)
-    m = paper_motion(t)
-    X = lin.forward(m["X"])
-    V = lin.forward_velocity(m["X"], m["V"])
-    A = lin.forward_acceleration(m["X"], m["V"], m["A"])
-    th = rot.inverse(X)
-    thd = np.einsum("...ij,...j->...i", rot.jacobian(X), V)
-    thdd = rot.accelerations(X, V, A)
-    return {"t": np.asarray(t, float), "m": m["X"], "md": m["V"], "mdd": m["A"], "X": X, "V": V, "A": A,
-            "theta": th, "thetad": thd, "thetadd": thdd,
-            "V_from_rotary": rot.forward_velocity(th, thd),
-            "A_from_rotary": rot.forward_acceleration(th, thd, thdd)}
-
-
 # ---------------------------------------------------------------------- CasADi model
 def symbolic_model(input_type: int = ROTARY):
     """The closure equations for the CasADi route (optdesign.symbolic): the loop
@@ -358,59 +318,3 @@ def symbolic_model(input_type: int = ROTARY):
         return ca.vertcat(x[0] - q[0], x[1] - q[1])
 
     return SymbolicModel(2, 2, ("n", "f", "w"), closure)
-
-
-def plot_motion_example(path, t=None, **design):
-    """Figure 4 of the paper from :func:`motion_profile`: platform displacement,
-    velocity and acceleration (linear inputs, eq. 21-24; the rotary route of
-    eq. 15-18 drawn dashed on top), and the inputs of both types.  Writes a PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    P = PAPER_MOTION
-    if t is None:
-        t = np.linspace(0.0, P["duration"], P["steps"] + 1)
-    mp = motion_profile(t, **design)
-    fig, axs = plt.subplots(2, 3, figsize=(13, 7))
-    mm = 1e3
-    rows = [("displacement (mm)", mp["X"], None), ("velocity (mm/s)", mp["V"], mp["V_from_rotary"]),
-            ("acceleration (mm/s$^2$)", mp["A"], mp["A_from_rotary"])]
-    for ax, (label, lin, rot) in zip(axs[0], rows):
-        ax.plot(t, mm * lin[:, 0], label="x")
-        ax.plot(t, mm * lin[:, 1], label="y")
-        if rot is not None:
-            ax.plot(t, mm * rot[:, 0], "k--", lw=0.8, label="x, from rotary inputs (eq. 15-18)")
-            ax.plot(t, mm * rot[:, 1], "k:", lw=0.8, label="y, from rotary inputs")
-        ax.set_xlabel("t (s)")
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    axs[0, 0].legend(fontsize=8)
-    axs[0, 1].legend(fontsize=7)
-    ax = axs[1, 0]
-    ax.plot(t, mm * mp["m"][:, 0], label="m1")
-    ax.plot(t, mm * mp["m"][:, 1], label="m2")
-    ax.set_ylabel("linear inputs (mm)")
-    ax.set_title("linear inputs (= platform x, y)", fontsize=9)
-    ax = axs[1, 1]
-    ax.plot(t, np.degrees(mp["theta"][:, 0]), label="theta2")
-    ax.plot(t, np.degrees(mp["theta"][:, 1]), label="theta1")
-    ax.set_ylabel("rotary inputs (deg)")
-    ax.set_title("rotary inputs for the same motion", fontsize=9)
-    ax = axs[1, 2]
-    ax.plot(t, np.degrees(mp["thetad"][:, 0]), label="theta2 rate")
-    ax.plot(t, np.degrees(mp["thetad"][:, 1]), label="theta1 rate")
-    ax.set_ylabel("rotary input rates (deg/s)")
-    for ax in axs[1]:
-        ax.set_xlabel("t (s)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    mech = CPR_RRR(**design)
-    fig.suptitle("2-CPR/RRR motion example (paper section 5, fig. 4): X = 10 sin(pi t/10 + pi/2), "
-                 f"Y = 7.5 sin(pi t/7.5) mm; n = {1e3 * float(mech.n):g} mm, "
-                 f"f = {1e3 * float(mech.f):g} mm, w = {1e3 * float(mech.w):g} mm", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return mp

@@ -36,9 +36,8 @@ from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from pymoo.util.ref_dirs import get_reference_directions
 
 from ..config import Config
-from ..evaluate import workspace_of
+from ..evaluate import mechanism_class, workspace_of
 from ..runs import RunFolder
-from .objectives import EXTRA_OBJECTIVES
 from .operators import (AdaptiveGaussianMutation, AdaptiveMutationCallback, ArithmeticCrossover,
                         ElitistGenerationalSurvival, RouletteSelection)
 from .problem import DesignProblem, extra_term, index_term, weighted_sum, weighted_sum_term
@@ -358,7 +357,8 @@ def _stage_terms(cfg: Config, st: Stage, lo: dict, hi: dict):
         term = weighted_sum_term(lo, hi, w, senses, literal=st.literal)
         return [term], cfg.optimizer.generations, lambda: build_algorithm(cfg)
     terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
-    terms += [extra_term(e) for e in cfg.optimizer.extra_objectives]
+    extras = mechanism_class(cfg).extra_objectives
+    terms += [extra_term(e, extras[e].sense) for e in cfg.optimizer.extra_objectives]
     return terms, cfg.optimizer.pareto_generations, lambda a=st.algorithm, n=len(terms): build_algorithm(cfg, n, a)
 
 
@@ -698,6 +698,7 @@ def _place_against_front(cfg: Config, s: dict, results: dict, lo: dict, hi: dict
     """Hypervolume of the front and the additive-epsilon placement of the
     weighted-sum optimum and the named designs (normalized objective space)."""
     terms = s["terms"]
+    extras = mechanism_class(cfg).extra_objectives
     front = np.array([[row[f"objective_{t}"] for t in terms] for row in s["front"]]) if s["front"] else np.zeros((0, len(terms)))
     # normalization: indices by their single-objective extremes (best -> 0, worst -> 1)
     scale_lo, scale_hi = [], []
@@ -706,11 +707,11 @@ def _place_against_front(cfg: Config, s: dict, results: dict, lo: dict, hi: dict
         col = front[:, terms.index(t)] if len(front) else np.array([0.0, 1.0])
         if k in lo:
             a, b = (lo[k], hi[k]) if cfg.indices[k].sense == "min" else (-hi[k], -lo[k])
-        elif k in EXTRA_OBJECTIVES:  # the range over its parameters' bounds and the front
+        elif k in extras:  # the range over its parameters' bounds and the front
             a, b = float(np.min(col)), float(np.max(col))
-            fn, _, _, params = EXTRA_OBJECTIVES[k]
-            corners = {p: np.array(cfg.design_variables[p].bounds or (cfg.design_variables[p].value,) * 2) for p in params}
-            vals = np.asarray(fn(corners), dtype=float) * (1 if t == k else -1)
+            e = extras[k]
+            corners = {p: np.array(cfg.design_variables[p].bounds or (cfg.design_variables[p].value,) * 2) for p in e.parameters}
+            vals = np.asarray(e.func(corners), dtype=float) * (1 if t == k else -1)
             a, b = min(a, float(vals.min())), max(b, float(vals.max()))
         else:  # an index with weight 0 (no single-objective runs): the front's own range
             a, b = float(np.min(col)), float(np.max(col))
@@ -732,8 +733,7 @@ def _place_against_front(cfg: Config, s: dict, results: dict, lo: dict, hi: dict
     def extra_vals(design: dict) -> dict:
         out = {}
         for e in cfg.optimizer.extra_objectives:
-            fn = EXTRA_OBJECTIVES[e][0]
-            out[e] = float(np.asarray(fn({k: np.array([v]) for k, v in design.items()}))[0])
+            out[e] = float(np.asarray(extras[e].func({k: np.array([v]) for k, v in design.items()}))[0])
         return out
 
     placed = {}

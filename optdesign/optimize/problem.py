@@ -25,10 +25,8 @@ import numpy as np
 from pymoo.core.problem import Problem
 
 from ..config import Config
-from ..evaluate import evaluate
-from ..indices import cond_2
+from ..evaluate import Evaluator
 from ..workspace import Workspace
-from .objectives import EXTRA_OBJECTIVES
 
 __all__ = ["Term", "DesignProblem", "index_term", "extra_term", "weighted_sum_term"]
 
@@ -61,8 +59,8 @@ def index_term(name: str, sense: str) -> Term:
     return Term("index", name, 1.0 if sense == "min" else -1.0)
 
 
-def extra_term(name: str) -> Term:
-    return Term("extra", name, 1.0 if EXTRA_OBJECTIVES[name][1] == "min" else -1.0)
+def extra_term(name: str, sense: str) -> Term:
+    return Term("extra", name, 1.0 if sense == "min" else -1.0)
 
 
 def weighted_sum_term(lo: dict, hi: dict, weights: dict, senses: dict, literal: bool = False) -> Term:
@@ -97,77 +95,30 @@ def weighted_sum(values: dict, term: Term) -> np.ndarray:
 class DesignProblem(Problem):
     """pymoo Problem: free design variables of a config -> objective terms."""
 
-    CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
+    CONSTRAINTS = Evaluator.CONSTRAINTS
 
     def __init__(self, config: Config, terms: Sequence[Term], workspace: Workspace):
         self.config = config
         self.terms = list(terms)
         self.workspace = workspace
-        self.free = [v.name for v in config.free_variables]
-        if not self.free:
-            from ..config import ConfigError
-
-            raise ConfigError(config.source, "design_variables", "no free design variable: give at least one 'bounds'")
-        xl = np.array([config.design_variables[k].bounds[0] for k in self.free])
-        xu = np.array([config.design_variables[k].bounds[1] for k in self.free])
-        self.constraint_names = list(self.CONSTRAINTS[:3])
-        if config.optimizer.stroke_limits is not None:
-            self.constraint_names += list(self.CONSTRAINTS[3:])
+        self.evaluator = Evaluator.from_config(config, workspace)
+        self.free = self.evaluator.free
+        self.constraint_names = self.evaluator.constraint_names
         self.n_evaluations = 0
         super().__init__(n_var=len(self.free), n_obj=len(self.terms), n_ieq_constr=len(self.constraint_names),
-                         xl=xl, xu=xu, vtype=float)
+                         xl=self.evaluator.xl, xu=self.evaluator.xu, vtype=float)
 
     # ------------------------------------------------------------------ helpers
     def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """Design vectors (D, n_var) -> parameter arrays (D,), SI, fixed ones filled in."""
-        X = np.atleast_2d(X)
-        out = {}
-        for k, dv in self.config.design_variables.items():
-            out[k] = X[:, self.free.index(k)] if k in self.free else np.full(X.shape[0], dv.value)
-        return out
+        return self.evaluator.designs(X)
 
     def vector(self, design: dict) -> np.ndarray:
-        return np.array([design[k] for k in self.free], dtype=float)
+        return self.evaluator.vector(design)
 
     def index_values(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """Global index means, constraint values and reachable fraction of designs X."""
-        cfg = self.config
-        designs = self.designs(X)
-        ev = evaluate(cfg, designs, self.workspace)
-        vals = {k: ev.summary[k]["mean"] for k in cfg.indices}
-        # largest local condition number over W: the isotropy index if the config
-        # has one (a condition number of J), else cond_2(J) computed here
-        iso = [k for k, s in cfg.indices.items() if s.kind == "isotropy"]
-        if iso:
-            cmax = ev.summary[iso[0]]["max"]
-        else:
-            from ..mechanisms import get
-
-            mech = get(cfg.mechanism)(**{**cfg.parameters, **{k: v[:, None] for k, v in designs.items()}})
-            with np.errstate(all="ignore"):
-                c = cond_2(mech.jacobian(self.workspace.X))
-            cmax = np.max(np.where(ev.reachable, c, 0.0), axis=-1)
-        cons = {
-            "reach": 1.0 - ev.reachable_fraction,
-            "singularity": np.where(np.isfinite(cmax), cmax / cfg.optimizer.singularity_threshold - 1.0, 1.0),
-            "finite": np.where(np.all([np.isfinite(v) for v in vals.values()], axis=0), 0.0, 1.0),
-        }
-        if cfg.optimizer.stroke_limits is not None:
-            from ..mechanisms import get
-
-            lo, hi = cfg.optimizer.stroke_limits
-            mech = get(cfg.mechanism)(**{**cfg.parameters, **{k: v[:, None] for k, v in designs.items()}})
-            with np.errstate(all="ignore"):
-                Q = mech.inverse(self.workspace.X)
-            qmin = np.nanmin(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
-            qmax = np.nanmax(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
-            cons["stroke_low"] = np.where(np.isfinite(qmin), lo - qmin, 1.0)
-            cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - hi, 1.0)
-        for k, (fn, _, _, _) in EXTRA_OBJECTIVES.items():
-            if any(t.kind == "extra" and t.name == k for t in self.terms):
-                vals[k] = np.asarray(fn(designs), dtype=float)
-        return {"values": vals, "constraints": cons, "reachable_fraction": ev.reachable_fraction}
-
+        return self.evaluator(X)
     def objectives(self, values: dict) -> np.ndarray:
         cols = []
         for t in self.terms:

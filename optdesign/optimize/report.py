@@ -23,7 +23,7 @@ def _f(x, digits=4) -> str:
 
 
 def _md(headers, rows) -> str:
-    from ..commands._common import table
+    from ..tables import table
 
     return table(headers, rows)
 

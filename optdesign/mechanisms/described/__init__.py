@@ -13,46 +13,29 @@ A config's ``mechanism:`` may be a mapping instead of a registered name::
           base: [R_b, 0, 0]
           platform: [R_p, 0, 0]
 
-:func:`register_description` validates it (:mod:`.schema`), builds a
-:class:`~.mechanism.DescribedMechanism` subclass (:func:`.mechanism.make_class`)
-and registers it under a name derived from the description's content, which
-the config then carries like any registered name.  Kinematics, Jacobian,
-dynamics and the compiled path are derived from the description once per leg
-kind and pose type; see docs/mechanisms-as-data.md.
+:func:`register_description` (reached through ``optdesign.mechanisms.describe``)
+validates it (:mod:`.schema`), builds a :class:`~.mechanism.DescribedMechanism`
+subclass (:func:`.mechanism.make_class`) and registers it under a name derived
+from the description's content.  The class pickles as its description (a
+config sent to a worker process rebuilds it there).  Kinematics, Jacobian,
+dynamics and the compiled path are derived once per leg kind and pose type;
+see docs/mechanisms-as-data.md.
 """
 from __future__ import annotations
 
+import copyreg
 import hashlib
 import json
 from typing import Any, Mapping
 
-from .schema import Description, DescriptionError, parse_description
+from .. import DescriptionError
+from .schema import Description, parse_description
 
-__all__ = ["DescriptionError", "Description", "DescribedName", "register_description", "build_class",
-           "parse_description"]
+__all__ = ["DescriptionError", "Description", "register_description", "build_class", "parse_description"]
 
 #: bounds on the size of a description (nodes of the YAML tree, nesting depth)
 MAX_NODES = 20_000
 MAX_DEPTH = 24
-
-
-class DescribedName(str):
-    """The registry name of a described mechanism.  A plain string everywhere;
-    unpickling it (a config sent to a worker process) registers the mechanism
-    there again, from the description it carries."""
-
-    description: Any = None
-    label: str | None = None
-
-    def __reduce__(self):
-        return (_restore, (str(self), self.description, self.label))
-
-
-def _restore(name: str, raw: Any, label: str | None) -> DescribedName:
-    out = register_description(raw, label=label)
-    if str(out) != name:  # pragma: no cover - the hash is of the same content
-        raise RuntimeError(f"described mechanism {name!r} restored as {str(out)!r}")
-    return out
 
 
 def _measure(v: Any, path: str, depth: int, count: list) -> None:
@@ -80,17 +63,31 @@ def build_class(raw: Any, label: str | None = None, path: str = "mechanism"):
     _measure(raw, path, 0, [0])
     desc: Description = parse_description(raw, path, label)
     digest = hashlib.sha256(_canonical(raw).encode()).hexdigest()[:12]
-    return make_class(desc, f"{desc.label}@{digest}")
+    cls = make_class(desc, f"{desc.label}@{digest}")
+    cls.raw_description = (raw, label, path)
+    return cls
 
 
-def register_description(raw: Any, label: str | None = None, path: str = "mechanism") -> DescribedName:
-    """Validate a description, register its class and return its registry name.
-    Raises :class:`DescriptionError` (key path, one-line message)."""
+def register_description(raw: Any, label: str | None = None, path: str = "mechanism"):
+    """Validate a description, register its class (optdesign.mechanisms.get finds
+    it by name) and return the class.  Raises DescriptionError (key path, message)."""
     from .. import register_described
 
-    cls = build_class(raw, label, path)
-    register_described(cls)
-    name = DescribedName(cls.name)
-    name.description = raw
-    name.label = label
-    return name
+    return register_described(build_class(raw, label, path))
+
+
+def _rebuild(raw, label, path):
+    return register_description(raw, label, path)
+
+
+def _reduce(cls):
+    return (_rebuild, cls.raw_description)
+
+
+def _install_pickling():
+    from .mechanism import DescribedMeta
+
+    copyreg.pickle(DescribedMeta, _reduce)
+
+
+_install_pickling()

@@ -7,36 +7,28 @@ expressions in numpy, vectorized over the designs).
 
 ``global_statistics(mech, requests, X)`` returns ``(summary, reachable)``
 with ``summary[name] = {"mean", "min", "max", "std", "count"}`` (arrays (D,))
-for the requested local indices over the reachable points, or ``None`` when
-the compiled path cannot answer (disabled with ``OPTDESIGN_FAST=0``, numba
-missing, an index or option it does not compute); the caller then runs the
-numpy path.  Points the kernel flags (``cond_F(J) >= 1000`` or not finite)
-are evaluated with the numpy path (the index functions of optdesign.indices
-on this mechanism's own matrices) and merged in, so the results equal the
-numpy path's to round-off (1e-12 relative) and do not depend on the number
-of threads.  With ``want_max_cond`` the summary also has ``"_max_cond_2"``:
-the largest cond_2(J) over the reachable points, (D,).
+over the reachable points for the requests the kernel computes (every index
+kind of optdesign.indices with its conventions and options ``k``, ``axis``;
+the caller runs the numpy path for any other), or ``None`` when the compiled
+path cannot answer (disabled with ``OPTDESIGN_FAST=0``, numba missing).
+Points the kernel flags (``cond_F(J) >= 1000`` or not finite) are evaluated
+with the numpy path's formulas (optdesign.linalg on this mechanism's own
+matrices) and merged in, so the results equal the numpy path's to round-off
+(1e-12 relative) and do not depend on the number of threads.  With
+``want_max_cond`` the summary also has ``"_max_cond_2"``: the largest
+cond_2(J) over the reachable points, (D,).
 """
 from __future__ import annotations
 
 import math
-import warnings
-from dataclasses import dataclass
 
 import numpy as np
 
+from ...fast import KernelModule, enabled
+from ...linalg import cond_2_of, cond_fro_of, finite_stack, sigma_max_of, sigma_min_of, singular_values
+from ..base import IndexRequest
+
 __all__ = ["IndexRequest", "requests_of", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
-
-try:  # the seam's request type (optdesign/mechanisms/base.py) where it exists
-    from ..base import IndexRequest
-except ImportError:  # until then: the same fields
-    @dataclass(frozen=True)
-    class IndexRequest:
-        name: str
-        kind: str
-        convention: str | None
-        options: tuple
-
 
 def requests_of(config, names) -> list:
     """IndexRequests for the config's indices ``names``."""
@@ -47,27 +39,17 @@ def requests_of(config, names) -> list:
     return out
 
 
-_kern = None
-_kern_error: BaseException | None = None
+KERNELS = KernelModule("optdesign.mechanisms.described._kernels")
 
 
 def kernels():
     """The kernel module, or None if numba is not usable here."""
-    global _kern, _kern_error
-    if _kern is None and _kern_error is None:
-        from ...fast import _passive_workers
-
-        _passive_workers()
-        try:
-            from . import _kernels as k
-            _kern = k
-        except Exception as exc:  # numba missing or broken: the numpy path
-            _kern_error = exc
-    return _kern
+    return KERNELS.get()
 
 
 def plan(requests, dof: int, has_dynamics: bool):
-    """[(name, kernel value, factor)] or None if a request is not computed by the kernel."""
+    """[(name, kernel value, factor)] for the requests the kernel computes (the
+    others are left to the numpy path)."""
     from . import _kernels as K
 
     out = []
@@ -77,17 +59,20 @@ def plan(requests, dof: int, has_dynamics: bool):
         try:
             k = float(k)
         except (TypeError, ValueError):
-            return None
+            continue
         if not (math.isfinite(k) and k > 0):
-            return None
+            continue
         if r.kind == "axis_stiffness":
             a = opts.pop("axis", 0)
-            if opts or not float(a).is_integer() or not 0 <= int(a) < dof:
-                return None
-            out.append((r.name, K.COL0 + int(a), k))
+            try:
+                ok = float(a).is_integer() and 0 <= int(a) < dof
+            except (TypeError, ValueError):
+                ok = False
+            if not opts and ok:
+                out.append((r.name, K.COL0 + int(a), k))
             continue
         if opts:
-            return None
+            continue
         conv = r.convention
         if r.kind == "dynamic" and has_dynamics:
             out.append((r.name, K.DYN, 1.0))
@@ -99,8 +84,6 @@ def plan(requests, dof: int, has_dynamics: bool):
             out.append((r.name, K.IFRO, float(dof) if conv == "normalized" else 1.0))
         elif r.kind in ("manipulability", "driving"):
             out.append((r.name, K.DET, 1.0))
-        else:
-            return None
     return out
 
 
@@ -156,10 +139,32 @@ def pack(mech):
     return codes, np.ascontiguousarray(L), np.ascontiguousarray(F), D
 
 
+def _local_numpy(kind, conv, opts, J, M):
+    """The numpy path's local value of one index (optdesign.indices' formulas,
+    from the same optdesign.linalg functions, so the values are the same)."""
+    k = float(opts.get("k", 1.0))
+    if kind == "dynamic":
+        return sigma_max_of(*singular_values(M))
+    if kind == "stiffness":
+        s = sigma_min_of(*singular_values(J))
+        return k * s * s if conv in (None, "lambda_min_K") else np.sqrt(k) * s
+    if kind == "isotropy":
+        sv = singular_values(J)
+        return cond_fro_of(*sv, J.shape) if conv in (None, "frobenius") else cond_2_of(*sv, J.shape)
+    if kind == "dexterity":
+        c = cond_fro_of(*singular_values(J), J.shape)
+        n = J.shape[-1] if conv == "normalized" else 1.0
+        return np.where(np.isfinite(c), n / c, 0.0)
+    Jc, good = finite_stack(J)
+    if kind in ("manipulability", "driving"):
+        P = Jc @ np.swapaxes(Jc, -1, -2) if kind == "manipulability" else np.swapaxes(Jc, -1, -2) @ Jc
+        return np.where(good, np.sqrt(np.maximum(np.linalg.det(P), 0.0)), 0.0)
+    a = int(opts.get("axis", 0))
+    return np.where(good, k * np.sum(Jc[..., :, a] ** 2, axis=-1), 0.0)
+
+
 def _numpy_values(mech, X, dd, jj, entries):
     """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i])."""
-    from ...indices import local_index
-
     shape = mech.constants.shape
     D = int(np.prod(shape)) if shape else 1
     params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] if np.ndim(v) else v
@@ -169,8 +174,7 @@ def _numpy_values(mech, X, dd, jj, entries):
     needs = {"J"} | ({"M"} if any(e[0] == "dynamic" for e in entries) else set())
     with np.errstate(all="ignore"):
         mats = sub.index_matrices(Xk, needs)
-        return np.stack([local_index(kind, J=mats.get("J"), M=mats.get("M"), convention=conv, options=opts)
-                         for kind, conv, opts in entries])
+        return np.stack([_local_numpy(kind, conv, opts, mats.get("J"), mats.get("M")) for kind, conv, opts in entries])
 
 
 def _merge(stats, counts, extra, dd):
@@ -201,18 +205,16 @@ def _merge(stats, counts, extra, dd):
 
 
 def global_statistics(mech, requests, X, want_max_cond: bool = False):
-    from ... import fast
-
-    if not fast.enabled():
+    if not enabled():
         return None
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != mech.dof:
         return None
-    pl = plan(requests, mech.dof, mech.description.has_dynamics)
-    if pl is None:
-        return None
     K = kernels()
     if K is None:
+        return None
+    pl = plan(requests, mech.dof, mech.description.has_dynamics)
+    if not pl and not want_max_cond:
         return None
     try:
         codes, L, F, D = pack(mech)
@@ -222,16 +224,10 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     want = np.zeros(K.NVAL, dtype=np.bool_)
     want[rows] = True
     Xc = np.ascontiguousarray(X)
-    try:
-        stats, counts, cd = K.summary(*codes, L, F, Xc, want)
-    except Exception as exc:  # a compile failure at first call: the numpy path from now on
-        cause = exc.__cause__ or exc.__context__
-        if isinstance(cause, BaseException) and not isinstance(cause, Exception):
-            raise cause from None
-        global _kern, _kern_error
-        _kern, _kern_error = None, exc
-        warnings.warn(f"described mechanisms: compiled kernel failed ({exc}); using the numpy path", RuntimeWarning)
+    res = KERNELS.guarded(K.summary, *codes, L, F, Xc, want)
+    if res is None:
         return None
+    stats, counts, cd = res
     # per request: the kernel's sums scaled by the request's factor (factors are positive)
     names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
     scales = [(v, fac) for _, v, fac in pl] + ([(K.TWO, 1.0)] if want_max_cond else [])

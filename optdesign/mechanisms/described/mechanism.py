@@ -31,10 +31,7 @@ from .legs import leg_state
 from .poses import rate_bias, rate_map, twist_columns
 from .schema import Description
 
-try:  # the declarative parameter table (optdesign/mechanisms/params.py) where it exists
-    from ..params import Param
-except ImportError:  # pragma: no cover - until the table lands: the same fields
-    from ._param import Param
+from ..params import Param
 
 __all__ = ["DescribedMechanism", "make_class", "KINEMATIC_INDICES"]
 
@@ -58,13 +55,20 @@ def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
     return np.where(good[..., None, None], out, np.nan)
 
 
-class DescribedMechanism(Mechanism):
+class DescribedMeta(type):
+    """The metaclass of described mechanisms: their classes pickle as their
+    description (see optdesign.mechanisms.described)."""
+
+
+class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     """A mechanism whose legs, joints and dimensions are data (see
     docs/mechanisms-as-data.md).  Subclasses are made by :func:`make_class`."""
 
     description: ClassVar[Description]
     parameters: ClassVar[tuple] = ()
     described: ClassVar[bool] = True
+    #: (raw description, label, key path) it was built from (pickling)
+    raw_description: ClassVar[tuple] = ()
 
     # ------------------------------------------------------------------ constants
     @property
@@ -255,8 +259,8 @@ class DescribedMechanism(Mechanism):
         return out
 
     def global_statistics(self, requests, X, want_max_cond: bool = False):
-        """Global statistics from the compiled path (optdesign.mechanisms.described.compiled),
-        or None (then the numpy path runs)."""
+        """Global statistics from the compiled path (:mod:`.compiled`) for the
+        requests it computes, or None (then the numpy path runs)."""
         from .compiled import global_statistics
 
         return global_statistics(self, requests, X, want_max_cond)
@@ -307,4 +311,4 @@ def make_class(desc: Description, registry_name: str) -> type[DescribedMechanism
                    f"({', '.join(sorted({leg.kind for leg in desc.legs}))}), {desc.pose.type} pose "
                    f"({', '.join(desc.pose.names)}).",
     }
-    return type(f"Described_{desc.label}", (DescribedMechanism,), attrs)
+    return DescribedMeta(f"Described_{desc.label}", (DescribedMechanism,), attrs)

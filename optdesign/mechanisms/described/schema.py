@@ -13,6 +13,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from .. import DescriptionError
 from .expr import CONSTANTS, FUNCTIONS, ExprError, parse
 
 __all__ = ["DescriptionError", "ParamDecl", "PoseSpec", "PlatformSpec", "LegSpec", "Description",
@@ -50,13 +51,6 @@ _SLIDER = {"mass"}
 _STRUT_PART = {"mass", "centre", "inertia"}
 
 
-class DescriptionError(ValueError):
-    """A mistake in a mechanism description: ``path`` (the config key path) and a one-line message."""
-
-    def __init__(self, path: str, message: str):
-        self.path = path
-        self.message = message
-        super().__init__(f"{path}: {message}")
 
 
 @dataclass(frozen=True)

@@ -1,10 +1,10 @@
 """Numba kernels for the closed-form forward kinematics of the 3-P(4S), one
-design (:func:`optdesign.fast.forward_p4s`).
+design (behind :meth:`P4S.forward`, through :func:`.compiled.forward`).
 
-Kept apart from :mod:`._p4s_kernels` so that editing one module leaves the
+Kept apart from :mod:`.kernels` so that editing one module leaves the
 numba cache of the other valid (the local-index kernel takes ~30 s to
-compile).  Importing this module imports numba; :mod:`optdesign.fast` imports
-it lazily and falls back to :meth:`P4S.forward` when that fails.
+compile).  Importing this module imports numba; :mod:`.compiled` imports
+it lazily and falls back to the numpy model when that fails.
 """
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import math
 
 from numba import njit, prange
 
-from ..mechanisms.p4s import E as _E
-from ._jit import NJIT as _NJIT
-from ._jit import fma as _fma
+from ...fast._jit import NJIT as _NJIT
+from ...fast._jit import fma as _fma
+from .geometry import E as _E
 
 # e_i components (x, y; the z components are 0); e_0 = (1, 0, 0) exactly, which
 # the kernel uses to drop the terms a0 * 0 and a0 * 1

@@ -1,8 +1,8 @@
 """Fused numba kernels for the 3-P(4S): inverse kinematics, Jacobian, mass
 matrix and the local indices per (design, workspace point).  The forward
-kinematics lives in :mod:`._fk_kernels` (its own numba cache).
+kinematics lives in :mod:`.fk_kernels` (its own numba cache).
 
-Importing this module imports numba; :mod:`optdesign.fast` imports it lazily
+Importing this module imports numba; :mod:`.compiled` imports it lazily
 and falls back to the numpy path when that fails.
 
 Per point (design constants hoisted, see :func:`design_constants`):
@@ -40,9 +40,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..mechanisms.p4s import E as _E
-from ._jit import NJIT as _NJIT
-from ._jit import fma as _fma
+from ...fast._jit import NJIT as _NJIT
+from ...fast._jit import fma as _fma
+from .geometry import E as _E
 
 #: points per task: the unit of parallel work and of the partial reductions
 CHUNK = 512

@@ -1,4 +1,4 @@
-"""The compiled fast path (optdesign.fast) against the numpy reference path.
+"""The 3-P(4S)'s compiled path (optdesign.mechanisms.p4s.compiled) against the numpy model.
 
 * local values at random designs and poses (unreachable, near-singular and the
   double eigenvalue at the workspace centre included) equal the numpy path's
@@ -8,7 +8,9 @@
   (bitwise) and the counts equal those of ``global_summary``;
 * results do not depend on the number of threads;
 * with the kernels forced off (set_enabled, OPTDESIGN_FAST=0, a failed import)
-  evaluate() takes the numpy path.
+  evaluate() takes the numpy path;
+* the public methods (inverse, jacobian, forward) take the compiled path and
+  equal the numpy model (bitwise for inverse kinematics and the Jacobian).
 No timing here: speed is measured by ``optdesign bench`` and ``benchmarks/``.
 """
 from __future__ import annotations
@@ -18,8 +20,9 @@ import pytest
 import yaml
 
 from optdesign import fast
+from optdesign.mechanisms.p4s import compiled
 from optdesign.config import load_config, parse_config
-from optdesign.evaluate import evaluate
+from optdesign.evaluate import evaluate, index_requests
 from optdesign.indices import cond_2, cond_fro, sigma_max, sigma_min
 from optdesign.mechanisms.p4s import P4S
 from optdesign.workspace import Workspace
@@ -29,7 +32,7 @@ from conftest import CONFIGS
 PAPER = CONFIGS / "p4s_paper.yaml"
 EPS = np.finfo(float).eps
 
-pytestmark = pytest.mark.skipif(not fast.available(), reason=f"numba kernels unavailable: {fast.import_error()}")
+pytestmark = pytest.mark.skipif(not compiled.LOCAL.available(), reason=f"numba kernels unavailable: {compiled.LOCAL.error}")
 
 
 def _designs(rng, D):
@@ -50,7 +53,7 @@ def _mech(des):
 
 
 def _reference(mech, X):
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"), fast.disabled():
         reach = mech.reachable(X)
         J = mech.jacobian(X)
         M = mech.mass_matrix(X)
@@ -65,7 +68,7 @@ def test_local_values_match_numpy():
     des = _designs(rng, 12)
     X = _poses(rng, 1500)
     mech = _mech(des)
-    vals, reach = fast.p4s_local(mech, X)
+    vals, reach = compiled.p4s_local(mech, X)
     ref, reach0, cond = _reference(mech, X)
     assert np.array_equal(reach, reach0)
     assert 0.2 < reach.mean() < 0.95       # unreachable poses are part of the sample
@@ -86,14 +89,14 @@ def test_raw_kernel_accuracy_near_singularities():
     rng = np.random.default_rng(5)
     mech = _mech(_designs(rng, 12))
     X = _poses(rng, 1500)
-    k = fast.kernels()
-    raw, codes = k.p4s_local(fast.design_constants(mech), np.ascontiguousarray(X), True)
+    k = compiled.LOCAL.get()
+    raw, codes = k.p4s_local(compiled.design_constants(mech), np.ascontiguousarray(X), True)
     ref, reach, cond = _reference(mech, X)
     assert np.array_equal(codes != 0, reach)
     assert np.all(codes[reach & (cond >= 1000)] == 2)
     good = reach & np.isfinite(cond)
     tol = np.maximum(1e-12, 50 * EPS * cond[good])
-    for i, name in enumerate(fast.VALUE_NAMES):
+    for i, name in enumerate(compiled.VALUE_NAMES):
         a, b = raw[i][good], ref[name][good]
         rel = np.abs(a - b) / np.abs(b)
         assert np.all(rel <= tol), (name, np.max(rel / tol))
@@ -108,7 +111,7 @@ def test_double_eigenvalue_at_the_centre():
                d=np.array([0.12, 0.12]), phi=np.radians([30.0, 35.0]))
     mech = _mech(des)
     X = np.array([[0.0, 0.0, z] for z in np.linspace(0.5, 0.62, 13)])
-    vals, reach = fast.p4s_local(mech, X)
+    vals, reach = compiled.p4s_local(mech, X)
     ref, reach0, _ = _reference(mech, X)
     assert reach.all() and reach0.all()
     for name, r in ref.items():
@@ -116,7 +119,7 @@ def test_double_eigenvalue_at_the_centre():
 
 
 def test_lambda_max_closed_form():
-    k = fast.kernels()
+    k = compiled.LOCAL.get()
     rng = np.random.default_rng(2)
     cases = []
     for _ in range(200):
@@ -143,7 +146,7 @@ def test_lambda_max_closed_form():
 def test_exactly_singular_and_unreachable():
     """Vertical rails (m = z), no offset, L = 1/2: at x = 1/2 the rods lie in the
     rails' plane exactly (s = 0): dynamic inf, stiffness 0, isotropy inf."""
-    k = fast.kernels()
+    k = compiled.LOCAL.get()
     P = np.zeros((1, 15))
     P[0, 1], P[0, 2] = 0.5, 0.25
     P[0, 3], P[0, 4], P[0, 5] = 4.0, 1.0, 0.1
@@ -202,8 +205,8 @@ def _compare(cfg, designs, ws, rtol=None):
 
 def test_evaluate_fast_equals_numpy_paper_config():
     cfg = load_config(PAPER)
-    assert fast.try_evaluate(cfg, P4S(**cfg.design("after"), **cfg.parameters),
-                             np.zeros((1, 3)), list(cfg.indices)) is not None
+    assert P4S(**cfg.design("after"), **cfg.parameters).global_statistics(
+        index_requests(cfg, list(cfg.indices)), np.zeros((1, 3))) is not None
     rng = np.random.default_rng(11)
     D = 40
     designs = {"r_a": rng.uniform(0.21, 0.29, D), "r_b": rng.uniform(0.63, 0.71, D),
@@ -251,10 +254,19 @@ def test_design_without_reachable_points_gives_nan():
 
 
 def test_unsupported_index_takes_numpy_path():
-    cfg = _config(indices__dexterity={"kind": "dexterity"})
+    """The kernel answers the indices it computes and leaves the others to the
+    numpy path (with its reachable mask); evaluate() then equals the numpy path
+    for every index."""
+    cfg = _config(indices__dexterity={"kind": "dexterity"}, indices__manip={"kind": "manipulability"})
     mech = P4S(**cfg.design("after"), **cfg.parameters)
-    assert fast.try_evaluate(cfg, mech, np.zeros((1, 3)), list(cfg.indices)) is None
-    assert fast.try_evaluate(cfg, mech, np.zeros((1, 3)), ["dynamic", "isotropy"]) is not None
+    ans = mech.global_statistics(index_requests(cfg, list(cfg.indices)), np.zeros((1, 3)))
+    assert set(ans[0]) == {"dynamic", "stiffness", "isotropy"}
+    assert mech.global_statistics(index_requests(cfg, ["dexterity", "manip"]), np.zeros((1, 3))) is None
+    assert mech.global_statistics(index_requests(cfg, ["dynamic", "isotropy"]), np.zeros((1, 3))) is not None
+    rng = np.random.default_rng(4)
+    designs = {"r_a": rng.uniform(0.18, 0.32, 20), "r_b": rng.uniform(0.55, 0.80, 20),
+               "phi": np.radians(rng.uniform(20, 40, 20))}
+    _compare(cfg, designs, _workspace(cfg, _poses(rng, 700)))
 
 
 # ----------------------------------------------------------------------------- threads, fallback
@@ -269,11 +281,11 @@ def test_results_do_not_depend_on_thread_count():
         out = []
         for nt in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS), numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(nt)
-            stats, counts, reach = fast.p4s_summary(mech, X)
-            vals, reach2 = fast.p4s_local(mech, X)
+            stats, counts, reach = compiled.p4s_summary(mech, X)
+            vals, reach2 = compiled.p4s_local(mech, X)
             one = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=np.radians(35.0))
             with np.errstate(all="ignore"):
-                fk = fast.forward_p4s(one, one.inverse(np.tile(X[:500], (10, 1))))
+                fk = one.forward(one.inverse(np.tile(X[:500], (10, 1))))
             out.append((stats, counts, reach, vals, reach2, fk))
     finally:
         numba.set_num_threads(old)
@@ -292,22 +304,23 @@ def test_fallback_when_disabled_or_unavailable(monkeypatch):
     X = np.zeros((1, 3))
     names = list(cfg.indices)
     monkeypatch.setenv(fast.ENV_VAR, "0")
-    assert not fast.enabled() and fast.try_evaluate(cfg, mech, X, names) is None
+    assert not fast.enabled() and mech.global_statistics(index_requests(cfg, names), X) is None
     monkeypatch.setenv(fast.ENV_VAR, "1")
     assert fast.enabled()
     with fast.disabled():
-        assert fast.try_evaluate(cfg, mech, X, names) is None
+        assert mech.global_statistics(index_requests(cfg, names), X) is None
     # numba missing: the import failed
-    monkeypatch.setattr(fast, "_kernels", None)
-    monkeypatch.setattr(fast, "_import_error", ImportError("no numba"))
-    monkeypatch.setattr(fast, "_fk_mod", None)
-    monkeypatch.setattr(fast, "_fk_error", ImportError("no numba"))
-    assert not fast.available() and fast.fk_kernels() is None
-    assert fast.try_evaluate(cfg, mech, X, names) is None
+    for km in (compiled.LOCAL, compiled.FK, compiled.IK):
+        monkeypatch.setattr(km, "module", None)
+        monkeypatch.setattr(km, "error", ImportError("no numba"))
+    assert not compiled.LOCAL.available() and compiled.FK.get() is None and compiled.IK.get() is None
+    assert mech.global_statistics(index_requests(cfg, names), X) is None
     ev = evaluate(cfg, [cfg.design("after")])
     assert 15.0 < ev.summary["dynamic"]["mean"][0] < 16.5
-    np.testing.assert_allclose(fast.forward_p4s(mech, np.array([[0.4, 0.41, 0.42]])),
-                               mech.forward(np.array([[0.4, 0.41, 0.42]])), rtol=0, atol=0)
+    np.testing.assert_allclose(mech.forward(np.array([[0.4, 0.41, 0.42]])),
+                               mech.forward_numpy(np.array([[0.4, 0.41, 0.42]])), rtol=0, atol=0)
+    Xp = np.array([[0.01, -0.02, 0.57]])
+    assert compiled.inverse(mech, Xp) is None and compiled.jacobian(mech, Xp) is None
 
 
 # ----------------------------------------------------------------------------- forward kinematics
@@ -325,30 +338,46 @@ def test_forward_kinematics_kernel():
             cond = cond_2(mech.jacobian(X))
         ok = np.all(np.isfinite(Q), axis=-1)
         Q, X, cond = Q[ok], X[ok], cond[ok]
-        P = fast.forward_p4s(mech, Q)
+        P = mech.forward(Q)
         with np.errstate(all="ignore"):
-            P0 = mech.forward(Q)
+            P0 = mech.forward_numpy(Q)
         err, err0 = np.abs(P - X).max(axis=-1), np.abs(P0 - X).max(axis=-1)
         wc = cond < 1e3
         assert np.max(err[wc]) <= 1e-12 and np.max(np.abs(P - P0)[wc]) <= 1e-12
         assert np.all(err <= 2 * err0 + 1e-13)
     # a caller's output array, a non-contiguous input: the same values
     out = np.full(Q.shape, 7.0)
-    assert fast.forward_p4s(mech, Q, out=out) is out
+    assert mech.forward(Q, out=out) is out
     np.testing.assert_array_equal(out, P)
-    np.testing.assert_array_equal(fast.forward_p4s(mech, np.asfortranarray(Q)), P)
+    np.testing.assert_array_equal(mech.forward(np.asfortranarray(Q)), P)
     # in place, and a pose's result does not depend on where it falls (vectorized
     # loop, scalar remainder, the scalar loop taken when out aliases Q)
     Q2 = Q.copy()
-    np.testing.assert_array_equal(fast.forward_p4s(mech, Q2, out=Q2), P)
-    np.testing.assert_array_equal(fast.forward_p4s(mech, Q[3:]), P[3:])
-    np.testing.assert_array_equal(np.concatenate([fast.forward_p4s(mech, Q[k:k + 1]) for k in range(20)]), P[:20])
+    np.testing.assert_array_equal(mech.forward(Q2, out=Q2), P)
+    np.testing.assert_array_equal(mech.forward(Q[3:]), P[3:])
+    np.testing.assert_array_equal(np.concatenate([mech.forward(Q[k:k + 1]) for k in range(20)]), P[:20])
     with pytest.raises(ValueError):
-        fast.forward_p4s(mech, Q, out=np.empty((len(Q), 3), order="F"))
+        mech.forward(Q, out=np.empty((len(Q), 3), order="F"))
     # spheres that do not meet: NaN as the numpy path
     Qbad = np.array([[0.0, 0.0, 2.0], [2.0, -2.0, 0.0]])
     with np.errstate(all="ignore"):
-        assert np.array_equal(np.isnan(fast.forward_p4s(mech, Qbad)), np.isnan(mech.forward(Qbad)))
+        assert np.array_equal(np.isnan(mech.forward(Qbad)), np.isnan(mech.forward_numpy(Qbad)))
+
+
+def test_public_inverse_and_jacobian_are_the_numpy_models_bitwise():
+    """P4S.inverse / reachable / jacobian through the compiled kernel equal the
+    numpy model bit for bit, for one design and for a population (D, 1), at
+    reachable and unreachable poses."""
+    rng = np.random.default_rng(12)
+    X = np.concatenate([_poses(rng, 3000), np.c_[rng.uniform(-0.5, 0.5, (300, 2)), rng.uniform(0.8, 1.2, 300)]])
+    for mech in (P4S(**{k: float(v[0]) for k, v in _designs(rng, 1).items()}), _mech(_designs(rng, 9))):
+        got = (mech.inverse(X), mech.reachable(X), mech.jacobian(X))
+        with fast.disabled():
+            want = (mech.inverse(X), mech.reachable(X), mech.jacobian(X))
+        assert compiled.inverse(mech, X) is not None and compiled.jacobian(mech, X) is not None
+        for a, b in zip(got, want):
+            assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+        assert 0.1 < got[1].mean() < 0.95 and np.isnan(got[0]).any()
 
 
 def test_bench_command_smoke(capsys):

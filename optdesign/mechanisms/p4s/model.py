@@ -21,20 +21,17 @@ Everything is batched over poses and (broadcast) designs.
 """
 from __future__ import annotations
 
+import math
 from typing import Mapping
 
 import numpy as np
 
-from . import register
-from .base import Mechanism
-
-_GAMMA = np.array([0.0, 2.0 * np.pi / 3.0, 4.0 * np.pi / 3.0])
-#: e_i, the unit vectors from the centre to the branches (3 branches x 3 components)
-E = np.stack([np.cos(_GAMMA), np.sin(_GAMMA), np.zeros(3)], axis=-1)
-E[np.abs(E) < 1e-15] = 0.0
-Z = np.array([0.0, 0.0, 1.0])
-#: t_i = z x e_i, the direction of the short sides of the parallelogram
-T = np.cross(Z, E)
+from .. import register
+from ..base import ExtraObjective, Mechanism
+from ..params import Param
+from .dynamics import (gravity_force, mass_coefficients, platform_mass, rod_angular_map, rod_velocity_map,  # noqa: F401
+                       solve_T, velocity_force, velocity_products)
+from .geometry import E, T, Z, _col, _p, skew  # noqa: F401
 
 #: the paper's mass data (section 2.4)
 PAPER_MASSES = {
@@ -45,21 +42,12 @@ PAPER_MASSES = {
     "rod_Izz": 1.276e-4,  # kg m^2, rod inertia about its own axis (no spin: does not enter)
 }
 
-
-def _col(a: np.ndarray) -> np.ndarray:
-    """Parameter (design shape, which already spans the pose axis) -> shape
-    (..., 1, 1) to broadcast over the (branch, component) axes."""
-    return np.asarray(a, dtype=float)[..., None, None]
+def _base_radius(p) -> np.ndarray:
+    return np.asarray(p["r_b"], dtype=float)
 
 
-def skew(n: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrices of vectors (..., 3) -> (..., 3, 3): skew(a) b = a x b."""
-    z = np.zeros_like(n[..., 0])
-    return np.stack([
-        np.stack([z, -n[..., 2], n[..., 1]], -1),
-        np.stack([n[..., 2], z, -n[..., 0]], -1),
-        np.stack([-n[..., 1], n[..., 0], z], -1),
-    ], -2)
+def _overall_radius(p) -> np.ndarray:
+    return np.maximum(np.asarray(p["r_b"], float), np.asarray(p["r_a"], float))
 
 
 @register
@@ -80,17 +68,43 @@ class P4S(Mechanism):
     name = "p4s"
     pose_names = ("x", "y", "z")
     actuator_names = ("l1", "l2", "l3")
-    design_parameters = ("r_a", "r_b", "L", "d", "phi")
-    length_parameters = ("r_a", "r_b", "L", "d")
-    fixed_parameters = {**PAPER_MASSES, "g": 9.81, "k": 1.0, "rods_per_branch": 2.0}
-    positive_parameters = ("k",)
-    nonnegative_parameters = ("m_platform", "m_slider", "m_rod", "rod_Ixx", "rod_Izz", "g", "rods_per_branch")
+    parameters = (
+        Param("r_a", "length", design=True, low=0.0, low_open=True, doc="platform circumradius"),
+        Param("r_b", "length", design=True, low=0.0, low_open=True, doc="base circumradius"),
+        Param("L", "length", design=True, low=0.0, low_open=True, doc="rod length of the parallelograms"),
+        Param("d", "length", design=True, low=0.0, low_open=True, doc="short side of the parallelograms"),
+        Param("phi", "angle", design=True, low=0.0, high=math.pi / 2, low_open=True, high_open=True,
+              doc="rail inclination from the base plane"),
+        Param("m_platform", "mass", PAPER_MASSES["m_platform"], low=0.0, doc="upper platform"),
+        Param("m_slider", "mass", PAPER_MASSES["m_slider"], low=0.0, doc="each driven slider"),
+        Param("m_rod", "mass", PAPER_MASSES["m_rod"], low=0.0, doc="each rod of a parallelogram"),
+        Param("rod_Ixx", "inertia", PAPER_MASSES["rod_Ixx"], low=0.0, doc="rod inertia about a transverse axis"),
+        Param("rod_Izz", "inertia", PAPER_MASSES["rod_Izz"], low=0.0, doc="rod inertia about its axis"),
+        Param("g", "acceleration", 9.81, low=0.0, doc="gravity"),
+        Param("k", "stiffness", 1.0, low=0.0, low_open=True, doc="joint stiffness of K = J^T k J"),
+        Param("rods_per_branch", "count", 2.0, low=0.0, doc="rods carrying mass in each parallelogram"),
+    )
+    extra_objectives = {
+        "base_radius": ExtraObjective(_base_radius, "min", "base circumradius r_b (the footprint of the base)",
+                                      "m", ("r_b",)),
+        "overall_radius": ExtraObjective(_overall_radius, "min", "max(r_a, r_b) (the plan-view envelope)", "m",
+                                         ("r_a", "r_b")),
+    }
+    multibody_check = "optdesign.mechanisms.p4s.mujoco"
+    example = {  # the paper's design box and workspace plane (configs/p4s_paper.yaml)
+        "design_variables": {"r_a": {"value": 0.25, "bounds": [0.21, 0.29]},
+                             "r_b": {"value": 0.67, "bounds": [0.63, 0.71]},
+                             "L": {"value": 0.38}, "d": {"value": 0.12},
+                             "phi": {"value": 30, "bounds": [25, 35], "unit": "deg"}},
+        "workspace": {"type": "box", "axes": {"x": [-0.05, 0.05], "y": [-0.05, 0.05], "z": 0.57},
+                      "sampling": "grid", "step": 0.01},
+        "indices": {"dynamic": {"kind": "dynamic"}, "stiffness": {"kind": "stiffness"},
+                    "isotropy": {"kind": "isotropy"}},
+    }
     supported_indices = ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving")
 
     @classmethod
     def check_design(cls, design: Mapping[str, float]):
-        if "phi" in design and not (0.0 < design["phi"] < np.pi / 2):
-            return "phi", f"expected a rail angle between 0 and 90 deg, got {np.degrees(design['phi']):g} deg"
         if "d" in design and "r_a" in design and design["d"] >= 2 * design["r_a"]:
             return "d", f"expected d < 2 r_a (theta = asin(d / 2 r_a)), got d = {design['d']:g}, r_a = {design['r_a']:g}"
         return None
@@ -126,22 +140,41 @@ class P4S(Mechanism):
         return {"q": q, "n": n, "m": m, "s": s, "w": w, "L": L, "reachable": np.all(ok, axis=-1)}
 
     # ------------------------------------------------------------------ kinematics
+    # The public methods take the compiled path (:mod:`.compiled`) where it
+    # applies and this numpy model otherwise (OPTDESIGN_FAST=0, no numba,
+    # other design shapes); the compiled inverse kinematics and Jacobian are
+    # bitwise the numpy model's, the forward kinematics equal to 1e-12 m.
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Strokes (eq. 5) for platform positions X (..., N, 3); NaN where unreachable."""
-        return self.branch_state(X)["q"]
+        Q = compiled.inverse(self, X)
+        return self.branch_state(X)["q"] if Q is None else Q
 
     def reachable(self, X: np.ndarray) -> np.ndarray:
         """Boolean mask (..., N): every branch has a real inverse-kinematics root."""
-        return self.branch_state(X)["reachable"]
+        Q = compiled.inverse(self, X)
+        return self.branch_state(X)["reachable"] if Q is None else ~np.isnan(Q[..., 0])
 
-    def forward(self, Q: np.ndarray) -> np.ndarray:
+    def forward(self, Q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Closed-form forward kinematics: the platform centre p for strokes Q (..., N, 3).
 
         p lies at distance L from the three sphere centres
         ``s_i = c_i - rho e_i = (r_b - rho) e_i + q_i m_i``; of the two mirror
         solutions the one above the plane of the centres is the assembly mode of
         the paper (platform above the sliders).  NaN where the spheres do not meet.
+        ``out``: an optional C-contiguous float (N, 3) array to write into (one
+        design, compiled path).
         """
+        P = compiled.forward(self, Q, out)
+        if P is not None:
+            return P
+        P = self.forward_numpy(Q)
+        if out is not None:
+            out[...] = P
+            return out
+        return P
+
+    def forward_numpy(self, Q: np.ndarray) -> np.ndarray:
+        """:meth:`forward` in numpy (the reference of the compiled kernel)."""
         Q = np.asarray(Q, dtype=float)
         m = self.rail_directions()
         off = _col(self.r_b - self.rho)
@@ -176,20 +209,31 @@ class P4S(Mechanism):
 
     def jacobian(self, X: np.ndarray) -> np.ndarray:
         """J (..., N, 3, 3) with qdot = J v: rows n_i^T / (n_i^T m_i) (eq. 8)."""
+        J = compiled.jacobian(self, X)
+        if J is not None:
+            return J
         st = self.branch_state(X)
         return st["n"] / st["s"][..., None]
+
+    def global_statistics(self, requests, X):
+        """The fused compiled kernel's global indices (see :func:`.compiled.global_statistics`)."""
+        return compiled.global_statistics(self, requests, X)
+
+    def bare_kernel(self, X):
+        """The fused kernel alone, for benchmarks (see :func:`.compiled.bare_kernel`)."""
+        return compiled.bare_kernel(self, X)
 
     def rod_angular_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_omega_i (..., N, 3 branches, 3, 3): omega_i = J_omega_i v (eq. 9),
         ``(skew(n_i) - (n_i x m_i) n_i^T / (n_i.m_i)) / L``."""
         st = self.branch_state(X)
-        return _rod_angular_map(st)
+        return rod_angular_map(st)
 
     def rod_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_v_i (..., N, 3 branches, 3, 3): rod-centre velocity = J_v_i v (eq. 11),
         ``(I + m_i n_i^T / (n_i.m_i)) / 2``."""
         st = self.branch_state(X)
-        return _rod_velocity_map(st)
+        return rod_velocity_map(st)
 
     def velocity_product_terms(self, X: np.ndarray, V: np.ndarray) -> dict[str, np.ndarray]:
         """The velocity-product parts of the acceleration maps (eq. 13-15).
@@ -201,42 +245,42 @@ class P4S(Mechanism):
         and -h_i (n_i x m_i) / L.
         """
         st = self.branch_state(X)
-        return _velocity_products(st, np.asarray(V, dtype=float))
+        return velocity_products(st, np.asarray(V, dtype=float))
 
     def accelerations(self, X, V, A) -> np.ndarray:
         """Stroke accelerations qdd = J a + v^T H v (eq. 13), shape (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        return np.einsum("...ij,...j->...i", J, A) + _velocity_products(st, np.asarray(V, float))["qdd"]
+        return np.einsum("...ij,...j->...i", J, A) + velocity_products(st, np.asarray(V, float))["qdd"]
 
     # ------------------------------------------------------------------ dynamics
     def platform_mass_matrix(self, X: np.ndarray) -> np.ndarray:
         """Symmetric mass matrix in platform coordinates, M_p (..., N, 3, 3), with
         kinetic energy T = v^T M_p v / 2 (platform, sliders, two rods per branch)."""
         st = self.branch_state(X)
-        return _platform_mass(self, st)
+        return platform_mass(self, st)
 
     def mass_matrix(self, X: np.ndarray) -> np.ndarray:
         """The M of eq. (23): actuator forces per unit platform acceleration,
         ``M = J^-T M_p`` (..., N, 3, 3), so that tau = M a + velocity + gravity terms."""
         st = self.branch_state(X)
-        Mp = _platform_mass(self, st)
+        Mp = platform_mass(self, st)
         J = st["n"] / st["s"][..., None]
-        return _solve_T(J, Mp)
+        return solve_T(J, Mp)
 
     def velocity_term(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Actuator forces from velocity products (the V^T N V of eq. 23), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        C = _velocity_force(self, st, np.asarray(V, float))
-        return _solve_T(J, C[..., None])[..., 0]
+        C = velocity_force(self, st, np.asarray(V, float))
+        return solve_T(J, C[..., None])[..., 0]
 
     def gravity_term(self, X: np.ndarray) -> np.ndarray:
         """Actuator forces that hold the mechanism against gravity (tau^G), (..., N, 3)."""
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
-        G = _gravity_force(self, st)
-        return _solve_T(J, G[..., None])[..., 0]
+        G = gravity_force(self, st)
+        return solve_T(J, G[..., None])[..., 0]
 
     def actuator_forces(self, X: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
         """Forces the three actuators apply (..., N, 3) for platform positions X,
@@ -246,9 +290,9 @@ class P4S(Mechanism):
         st = self.branch_state(X)
         J = st["n"] / st["s"][..., None]
         A = np.asarray(A, dtype=float)
-        F = (np.einsum("...ij,...j->...i", _platform_mass(self, st), A)
-             + _velocity_force(self, st, np.asarray(V, float)) + _gravity_force(self, st))
-        return _solve_T(J, F[..., None])[..., 0]
+        F = (np.einsum("...ij,...j->...i", platform_mass(self, st), A)
+             + velocity_force(self, st, np.asarray(V, float)) + gravity_force(self, st))
+        return solve_T(J, F[..., None])[..., 0]
 
     # ------------------------------------------------------------------ bodies
     def body_positions(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -267,135 +311,4 @@ class P4S(Mechanism):
                 "rod_axes": st["n"], "c": c, "d": dpt}
 
 
-# ---------------------------------------------------------------------- helpers
-def _p(a, k: int) -> np.ndarray:
-    """A (broadcast) design parameter with k trailing axes added."""
-    a = np.asarray(a, dtype=float)
-    return a.reshape(a.shape + (1,) * k)
-
-
-def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """J^-T B for stacks of 3x3 J; NaN where J is singular or not finite."""
-    Jt = np.swapaxes(J, -1, -2)
-    good = np.all(np.isfinite(Jt), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
-    Js = np.where(good[..., None, None], Jt, np.eye(3))
-    Bs = np.where(good[..., None, None], B, 0.0)
-    det = np.linalg.det(Js)
-    good &= np.abs(det) > 0
-    Js = np.where(good[..., None, None], Js, np.eye(3))
-    out = np.linalg.solve(Js, Bs)
-    return np.where(good[..., None, None], out, np.nan)
-
-
-def _rod_angular_map(st) -> np.ndarray:
-    n, m, s, L = st["n"], st["m"], st["s"], st["L"]
-    nxm = np.cross(n, m)
-    return (skew(n) - nxm[..., :, None] * n[..., None, :] / s[..., None, None]) / L[..., None, None]
-
-
-def _rod_velocity_map(st) -> np.ndarray:
-    n, m, s = st["n"], st["m"], st["s"]
-    return 0.5 * (np.eye(3) + m[..., :, None] * n[..., None, :] / s[..., None, None])
-
-
-def _velocity_products(st, V) -> dict[str, np.ndarray]:
-    n, m, s, L = st["n"], st["m"], st["s"], st["L"]
-    qd = np.sum(n * V[..., None, :], axis=-1) / s                 # (.., N, 3)
-    rel = V[..., None, :] - qd[..., None] * m                       # L * ndot
-    h = np.sum(rel * rel, axis=-1) / (L * s)
-    return {"qdd": h, "rod_center": 0.5 * h[..., None] * m,
-            "rod_angular": -h[..., None] * np.cross(n, m) / L[..., None]}
-
-
-def _platform_mass(mech: P4S, st) -> np.ndarray:
-    n, s = st["n"], st["s"]
-    J = n / s[..., None]                                            # rows J_i
-    Jv = _rod_velocity_map(st)
-    Jw = _rod_angular_map(st)
-    mp = _p(mech.m_platform, 2)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    Irod = _p(mech.rods_per_branch * mech.rod_Ixx, 2)
-    M = mp * np.eye(3)
-    M = M + me * np.einsum("...bi,...bj->...ij", J, J)
-    M = M + rods * np.einsum("...bki,...bkj->...ij", Jv, Jv)
-    M = M + Irod * np.einsum("...bki,...bkj->...ij", Jw, Jw)
-    return M
-
-
-def _velocity_force(mech: P4S, st, V) -> np.ndarray:
-    n, s = st["n"], st["s"]
-    J = n / s[..., None]
-    vp = _velocity_products(st, V)
-    Jv = _rod_velocity_map(st)
-    Jw = _rod_angular_map(st)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    Irod = _p(mech.rods_per_branch * mech.rod_Ixx, 2)
-    C = np.sum(me * J * vp["qdd"][..., None], axis=-2)
-    C = C + np.sum(rods * np.einsum("...bki,...bk->...bi", Jv, vp["rod_center"]), axis=-2)
-    C = C + np.sum(Irod * np.einsum("...bki,...bk->...bi", Jw, vp["rod_angular"]), axis=-2)
-    return C
-
-
-def _gravity_force(mech: P4S, st) -> np.ndarray:
-    n, m, s = st["n"], st["m"], st["s"]
-    J = n / s[..., None]
-    Jv = _rod_velocity_map(st)
-    g = _p(mech.g, 2)
-    me = _p(mech.m_slider, 2)
-    rods = _p(mech.rods_per_branch * mech.m_rod, 2)
-    G = _p(mech.m_platform * mech.g, 1) * Z
-    G = G + np.sum(g * me * J * m[..., 2:3], axis=-2)
-    G = G + np.sum(g * rods * Jv[..., 2, :], axis=-2)
-    return G
-
-
-# ---------------------------------------------------------------------- CasADi model
-def symbolic_model():
-    """The 3-P(4S) as closure equations and body energies for the CasADi route
-    (optdesign.symbolic).  Independent of the hand-derived eq. 8-23 above: the
-    energies are written from each body's own velocity (platform, three sliders,
-    two rods per branch translating with their centres and rotating with
-    omega = n x ndot), and every derivative comes from automatic differentiation.
-    """
-    import casadi as ca
-
-    from ..symbolic import SymbolicModel
-
-    names = ("r_a", "r_b", "L", "d", "phi", "m_platform", "m_slider", "m_rod", "rod_Ixx", "g", "rods_per_branch")
-
-    def geometry(x, q, p):
-        rho = ca.sqrt(p["r_a"] ** 2 - p["d"] ** 2 / 4)
-        out = []
-        for i in range(3):
-            e = ca.DM(E[i])
-            m = -ca.cos(p["phi"]) * e + ca.sin(p["phi"]) * ca.DM(Z)
-            c = p["r_b"] * e + q[i] * m          # slider (bottom midpoint)
-            dpt = x + rho * e                    # top midpoint on the platform
-            out.append((c, dpt, m))
-        return out
-
-    def closure(x, q, p):
-        return ca.vertcat(*[ca.sumsqr(dpt - c) - p["L"] ** 2 for c, dpt, _ in geometry(x, q, p)])
-
-    def kinetic(x, q, xd, qd, p):
-        T = 0.5 * p["m_platform"] * ca.sumsqr(xd)
-        for i, (c, dpt, m) in enumerate(geometry(x, q, p)):
-            cd = qd[i] * m                        # slider velocity
-            T += 0.5 * p["m_slider"] * ca.sumsqr(cd)
-            vmid = 0.5 * (cd + xd)                # rod centre velocity (both rods)
-            n = (dpt - c) / p["L"]
-            ndot = (xd - cd) / p["L"]
-            omega = ca.cross(n, ndot)
-            T += p["rods_per_branch"] * (0.5 * p["m_rod"] * ca.sumsqr(vmid) + 0.5 * p["rod_Ixx"] * ca.sumsqr(omega))
-        return T
-
-    def potential(x, q, p):
-        V = p["m_platform"] * p["g"] * x[2]
-        for i, (c, dpt, m) in enumerate(geometry(x, q, p)):
-            V += p["m_slider"] * p["g"] * c[2]
-            V += p["rods_per_branch"] * p["m_rod"] * p["g"] * 0.5 * (c[2] + dpt[2])
-        return V
-
-    return SymbolicModel(3, 3, names, closure, kinetic, potential)
+from . import compiled  # noqa: E402  (the compiled path imports this module's helpers)

@@ -21,7 +21,7 @@ not from the equations of optdesign.mechanisms.described.dynamics:
 :func:`inverse_dynamics` sets every joint position, velocity and acceleration
 from our kinematics, computes MuJoCo's open-tree generalized forces
 ``M(q) qacc + bias`` and splits them into loop-closure forces (the
-non-actuated rows) and actuator forces, as optdesign.validation.mujoco_p4s
+non-actuated rows) and actuator forces, as optdesign.mechanisms.p4s.mujoco
 does for the 3-P(4S).  :func:`energies` reads MuJoCo's kinetic and potential
 energy at the same states.
 """
@@ -179,7 +179,7 @@ class DescribedModel:
         d = mech._pose_dyn(st, V, "rates")
         xi = d["xi"][0]
         sig = d["sigma"][0] if d["sigma"] is not None else np.zeros(6)
-        from ..mechanisms.described.poses import rate_map, twist_columns
+        from .poses import rate_map, twist_columns
 
         Sm = rate_map(mech.pose_spec, st["frames"])
         if Sm is None:

@@ -1,0 +1,208 @@
+"""Execution of a batch: one task in a worker, many through joblib.
+
+Each run lives in ``<out>/<name>-s<seed>-<key>/``: a task whose folder holds
+a complete run is skipped, one whose folder holds an unfinished run is
+resumed from its last finished generation.  A run's result depends only on
+its config and seed, never on the number of workers, on the backend, or on
+which worker ran it.
+
+Backends (both through joblib):
+
+* ``local`` — joblib's process pool (loky) on this machine's cores;
+* ``dask`` — joblib's Dask backend over a ``dask.distributed`` cluster.  The
+  run folders are written by the workers, so ``out`` must be a path every
+  worker sees (a shared file system, or one machine).  A worker that dies
+  loses at most the generation in progress: the scheduler gives its run to
+  another worker, which resumes it from the run folder's checkpoint.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from ..config import ConfigError, parse_config
+from ..runs import RunFolder, RunFolderError
+from .schema import sweep_label
+from .summary import row_from_folder
+from .tasks import Task, config_key
+
+__all__ = ["BackendError", "run_task", "run_batch", "connect_dask"]
+
+
+class BackendError(RuntimeError):
+    """The parallel backend cannot be used (extra not installed, scheduler unreachable, no workers)."""
+
+
+def run_task(task: Task, out: str, quiet: bool = True) -> dict:
+    """Run (or skip, or resume) one task; returns its summary row.
+
+    A run that fails (for example no feasible design) or a folder that cannot
+    be used gives a row with status ``failed`` and the error, so the rest of
+    the batch goes on.
+    """
+    from ..optimize.pipeline import Progress, run_pipeline
+
+    folder = RunFolder(Path(out) / task.folder_name)
+    state = "new"
+    try:
+        cfg = parse_config(task.config_text, source=task.source)
+        if folder.path.exists():
+            m = folder.read_manifest()
+            if m.get("status") == "complete" and (folder.path / "results.json").exists():
+                return _with_state(row_from_folder(folder.path), "done")
+            state = "resumed"
+        else:
+            try:
+                folder = RunFolder.create(out, task.folder_name, task.config_text, task.seed, task.key, exact=True)
+                folder.update_manifest(pareto=task.pareto, config_source=task.source, name=task.name,
+                                       sweep=task.sweep)
+            except FileExistsError:  # another worker created it meanwhile: resume it
+                state = "resumed"
+        run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
+    except (RunFolderError, ConfigError, RuntimeError, ValueError, ArithmeticError, OSError) as exc:
+        try:
+            row = row_from_folder(folder.path)
+        except RunFolderError:
+            row = {}
+        row = {**_empty_row(task, folder.path), **{k: v for k, v in row.items() if v is not None}}
+        row.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+        return _with_state(row, state)
+    return _with_state(row_from_folder(folder.path), state)
+
+
+def _with_state(row: dict, state: str) -> dict:
+    row["this_batch"] = state
+    return row
+
+
+def _empty_row(task: Task, path: Path) -> dict:
+    return {"config": task.name, "sweep": sweep_label(task.sweep), "config_key": config_key(task.config_text),
+            "run_key": task.key, "seed": task.seed, "status": "failed", "objective": None,
+            "wall_time_s": None, "folder": str(path)}
+
+
+def connect_dask(scheduler: str, timeout: float = 10.0, check_version: bool = True):
+    """A ``distributed.Client`` on ``scheduler`` with at least one worker.
+
+    Raises BackendError (one line) if the ``dask`` extra is missing, the
+    scheduler cannot be reached within ``timeout`` seconds, no worker joins
+    within ``timeout`` seconds, or a worker cannot import this optdesign.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise BackendError("--backend dask needs the dask extra: pip install 'optdesign[dask]'") from None
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)   # our one-line error says it all
+    try:
+        client = Client(scheduler, timeout=timeout, set_as_default=False)
+    except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError, ValueError for a bad address
+        raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s "
+                           f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'})") from None
+    logging.getLogger("distributed").setLevel(logging.WARNING)
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except Exception:  # noqa: BLE001 - TimeoutError
+        client.close()
+        raise BackendError(f"the Dask scheduler at {scheduler} has no workers (none joined within {timeout:g} s)") from None
+    if check_version:
+        from importlib.metadata import version
+
+        try:
+            versions = client.run(version, "optdesign")
+        except Exception as exc:  # noqa: BLE001 - PackageNotFoundError on a worker
+            client.close()
+            raise BackendError(f"a Dask worker cannot import optdesign ({type(exc).__name__}); install it on every worker") from None
+        mine = version("optdesign")
+        wrong = {w: v for w, v in versions.items() if v != mine}
+        if wrong:
+            client.close()
+            w, v = next(iter(wrong.items()))
+            raise BackendError(f"Dask worker {w} has optdesign {v}, this client {mine}; install the same version everywhere")
+    return client
+
+
+def _check_shared_folder(client, out_abs: str) -> None:
+    """Every Dask worker must see the run folders' parent (a shared file system)."""
+    marker = Path(out_abs) / f".optdesign-batch-{os.getpid()}-{os.urandom(4).hex()}"
+    marker.write_text("")
+    try:
+        seen = client.run(os.path.exists, str(marker))
+    finally:
+        marker.unlink()
+    blind = [w for w, ok in seen.items() if not ok]
+    if blind:
+        raise BackendError(f"Dask worker {blind[0]} does not see {out_abs}; with --backend dask, --out must be "
+                           "a folder on a file system shared by this machine and every worker")
+
+
+def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, backend: str = "local",
+              scheduler: str | None = None, on_result=None, retries: int = 2, timeout: float = 10.0,
+              client=None) -> list[dict]:
+    """Run tasks through joblib and return their rows (sorted by config and seed).
+
+    ``local``: joblib's process pool (loky) with ``jobs`` workers.  If a
+    worker process dies, the tasks without a result are submitted again (up
+    to ``retries`` times); finished runs are then skipped and interrupted ones
+    resumed.  ``dask``: joblib's Dask backend on the cluster at ``scheduler``
+    (or the given ``client``); every worker thread takes runs (``jobs`` is
+    not used: the cluster's size decides), each run is one Dask task, and a task lost with its worker is
+    rescheduled by Dask on another worker (``retries`` more times if the task
+    itself raises).
+    """
+    from joblib import Parallel, delayed, parallel_config
+
+    out_abs = str(Path(out).resolve())    # workers may have another working directory
+    rows: dict[str, dict] = {}
+
+    def collect(gen):
+        for row in gen:
+            rows[Path(row["folder"]).name] = row
+            if on_result is not None:
+                on_result(row)
+
+    if backend == "local":
+        from joblib.externals.loky.process_executor import TerminatedWorkerError
+
+        Path(out_abs).mkdir(parents=True, exist_ok=True)
+        attempt = 0
+        while True:
+            todo = [t for t in tasks if t.folder_name not in rows]
+            if not todo:
+                break
+            try:
+                with parallel_config(backend="loky", n_jobs=jobs or 2):
+                    collect(Parallel(return_as="generator_unordered", batch_size=1)(
+                        delayed(run_task)(t, out_abs) for t in todo))
+                break
+            except TerminatedWorkerError as exc:
+                attempt += 1
+                if attempt > retries:
+                    raise
+                left = len([t for t in tasks if t.folder_name not in rows])
+                print(f"batch: a worker process died ({type(exc).__name__}); resubmitting the {left} runs without "
+                      "a result (finished ones are skipped, interrupted ones resumed)", file=sys.stderr)
+    elif backend == "dask":
+        own = client is None
+        if own:
+            if not scheduler:
+                raise BackendError("--backend dask needs --scheduler tcp://HOST:PORT")
+            client = connect_dask(scheduler, timeout)
+        try:
+            Path(out_abs).mkdir(parents=True, exist_ok=True)
+            _check_shared_folder(client, out_abs)
+            # every run at once: Dask balances them over the worker threads (joblib's Dask
+            # backend always uses all of them, whatever n_jobs says)
+            with parallel_config(backend="dask", client=client, retries=retries, n_jobs=-1,
+                                 wait_for_workers_timeout=timeout):
+                collect(Parallel(return_as="generator_unordered", batch_size=1, pre_dispatch="all")(
+                    delayed(run_task)(t, out_abs) for t in tasks))
+        finally:
+            if own:
+                client.close()
+    else:
+        raise ValueError(f"unknown backend {backend!r}; expected local or dask")
+    return sorted(rows.values(), key=lambda r: (str(r["config"]), r["seed"]))

@@ -1,0 +1,82 @@
+"""Task planning: one task per resolved config × seed, keyed by a hash of both.
+
+A task holds everything a worker needs (the resolved config text, the seed,
+the run key), so running it needs no access to the files it came from.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+from ..config import load_config, parse_config
+from ..runs import run_key
+from .schema import is_batch_file, load_batch_file
+
+__all__ = ["Task", "config_key", "plan"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of a batch: everything a worker needs (no file access required)."""
+
+    name: str
+    config_text: str
+    source: str
+    seed: int
+    key: str
+    pareto: bool = False
+    #: the swept values of this run (dotted key -> value); empty outside sweeps
+    sweep: dict = field(default_factory=dict, compare=False, hash=False)
+
+    @property
+    def folder_name(self) -> str:
+        return f"{self.name}-s{self.seed}-{self.key}"
+
+
+def config_key(config_text: str) -> str:
+    """A short hash of a resolved config's text (the same for every seed)."""
+    return hashlib.sha256(config_text.encode("utf-8")).hexdigest()[:12]
+
+
+def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequence[int] | None = None,
+         pareto: bool | None = None) -> list[Task]:
+    """Tasks for every config (or batch-file combination) × seed.
+
+    Seeds: ``seeds`` if given; else ``n_seeds`` seeds from the config's
+    ``optimizer.seed``; else a batch file's own ``seeds``; else the config's
+    seed alone.  ``pareto`` (default False) overrides a batch file's setting.
+    Duplicate runs (same resolved config and seed) are planned once.
+    """
+    tasks: list[Task] = []
+    seen: set[str] = set()
+
+    def add(name, text, source, seed_list, par, sweep):
+        for s in seed_list:
+            t = Task(name, text, source, int(s), run_key(text, int(s), {"pareto": par}), par, sweep)
+            if t.folder_name not in seen:
+                seen.add(t.folder_name)
+                tasks.append(t)
+
+    for path in config_paths:
+        if is_batch_file(path):
+            bf = load_batch_file(path)
+            par = bf.pareto if pareto is None else pareto
+            for name, text, sweep in bf.combinations:
+                cfg = parse_config(text, source=str(path))
+                add(name, text, str(path), _seeds(cfg, n_seeds, seeds, bf.seeds), par, sweep)
+        else:
+            cfg = load_config(path)
+            add(cfg.name, Path(path).read_text(), str(path), _seeds(cfg, n_seeds, seeds, None), bool(pareto), {})
+    return tasks
+
+
+def _seeds(cfg, n_seeds, seeds, file_seeds) -> list[int]:
+    if seeds:
+        return list(seeds)
+    if n_seeds:
+        return [cfg.optimizer.seed + i for i in range(n_seeds)]
+    if file_seeds:
+        return list(file_seeds)
+    return [cfg.optimizer.seed]

@@ -1,0 +1,258 @@
+"""YAML configuration: reading and validation into typed objects.
+
+Every user mistake raises :class:`ConfigError` whose message is one line naming
+the file, the key path and what was expected, for example::
+
+    configs/x.yaml: design_variables.r_a.bounds: lower 0.3 is above upper 0.2
+
+Units: SI (m, kg, kg m^2, N/m, rad) unless an entry says ``unit:`` (mm for a
+length, deg for an angle, as the mechanism's parameter table allows);
+everything is converted to SI on load.  The mechanism's parameter table
+(:mod:`optdesign.mechanisms.params`) gives the keys, units and valid ranges.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+from .reader import UNITS, ConfigError, Reader, show
+from .schema import Config, DesignVariable, IndexSpec
+from .sections import optimizer_section, workspace_section
+
+__all__ = ["load_config", "parse_config", "from_mapping"]
+
+TOP_KEYS = {"mechanism", "name", "description", "parameters", "design_variables", "designs",
+            "workspace", "indices", "optimizer", "reference"}
+
+
+def load_config(path: str | os.PathLike) -> Config:
+    """Read and validate a YAML config file.  Raises ConfigError on any mistake."""
+    source = str(path)
+    p = Path(path)
+    if not p.exists():
+        raise ConfigError(source, "", "file not found")
+    if p.is_dir():
+        raise ConfigError(source, "", "is a directory, expected a YAML file")
+    try:
+        raw_bytes = p.read_bytes()
+    except OSError as exc:
+        raise ConfigError(source, "", f"cannot read file ({exc.strerror})") from None
+    try:
+        text = raw_bytes.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(source, "", "not a text file (expected UTF-8 YAML)") from None
+    if "\x00" in text:
+        raise ConfigError(source, "", "not a text file (contains NUL bytes)")
+    return parse_config(text, source=source)
+
+
+def parse_config(text: str, source: str = "<string>") -> Config:
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise ConfigError(source, "", f"YAML syntax error{where}: {problem}") from None
+    except (RecursionError, ValueError, TypeError) as exc:  # hostile YAML
+        raise ConfigError(source, "", f"YAML could not be read: {type(exc).__name__}") from None
+    if data is None:
+        raise ConfigError(source, "", "empty file; expected a mapping with at least 'mechanism', 'design_variables', 'workspace' and 'indices'")
+    return from_mapping(data, source)
+
+
+def _mechanism(r: Reader, value: Any, label: Any = None):
+    """(name, class) of the config's ``mechanism``: a registered name, or a
+    description (a mapping) from which the class is built
+    (optdesign/mechanisms/described; ``label``: the config's name)."""
+    from ..mechanisms import available, get
+
+    if isinstance(value, Mapping):
+        from ..mechanisms import DescriptionError, describe
+
+        try:
+            cls = describe(value, label=label if isinstance(label, str) else None)
+        except DescriptionError as exc:
+            r.fail(exc.path, exc.message)
+        return cls.name, cls
+    mech_name = r.string(value, "mechanism")
+    if mech_name not in available():
+        r.fail("mechanism", f"unknown mechanism {show(mech_name)}; expected one of {', '.join(available())}")
+    return mech_name, get(mech_name)
+
+
+def from_mapping(data: Any, source: str) -> Config:
+    """A validated Config from parsed YAML (a mapping, as ``yaml.safe_load`` gives)."""
+    from ..indices import INDEX_KINDS
+
+    r = Reader(source)
+    data = r.mapping(data, "")
+    if not isinstance(data, dict):
+        data = dict(data)
+    r.only(data, "", TOP_KEYS)
+    mech_name, mech_cls = _mechanism(r, r.require(data, "mechanism", ""), data.get("name"))
+    name = data.get("name", Path(source).stem if source != "<string>" else mech_name)
+    name = r.string(name, "name")
+    if data.get("description") is not None:
+        r.string(data["description"], "description")
+
+    # fixed parameters
+    params: dict[str, float] = {}
+    known_fixed = dict(mech_cls.fixed_parameters)
+    if "parameters" in data and data["parameters"] is not None:
+        pm = r.mapping(data["parameters"], "parameters")
+        r.only(pm, "parameters", set(known_fixed))
+        for k, v in pm.items():
+            params[k] = _param_value(r, v, f"parameters.{k}", mech_cls.param(k))
+
+    # design variables
+    dv_raw = r.mapping(r.require(data, "design_variables", ""), "design_variables")
+    allowed_dv = set(mech_cls.design_parameters)
+    r.only(dv_raw, "design_variables", allowed_dv)
+    dvs: dict[str, DesignVariable] = {}
+    for k in mech_cls.design_parameters:
+        path = f"design_variables.{k}"
+        if k not in dv_raw:
+            if k in mech_cls.design_defaults:
+                dvs[k] = DesignVariable(k, float(mech_cls.design_defaults[k]), None)
+                continue
+            r.fail(path, "missing required design variable")
+        dvs[k] = _design_variable(r, k, dv_raw[k], path, mech_cls.param(k))
+
+    # named designs
+    designs: dict[str, dict[str, float]] = {}
+    if data.get("designs") is not None:
+        ds = r.mapping(data["designs"], "designs")
+        for dname, dval in ds.items():
+            dpath = f"designs.{dname}"
+            dm = r.mapping(dval, dpath)
+            r.only(dm, dpath, allowed_dv)
+            design = {k: v.value for k, v in dvs.items()}
+            for k, v in dm.items():
+                scale = UNITS[dvs[k].unit]
+                x = r.number(v, f"{dpath}.{k}") * scale
+                design[k] = x
+            _check_design(r, mech_cls, design, dpath)
+            designs[dname] = design
+    _check_design(r, mech_cls, {k: v.value for k, v in dvs.items()}, "design_variables")
+    if "initial" not in designs:
+        designs = {"initial": {k: v.value for k, v in dvs.items()}, **designs}
+    check_config = getattr(mech_cls, "check_config", None)
+    if check_config is not None:  # a described mechanism: its expressions and legs with these designs
+        problem = check_config(params, designs)
+        if problem:
+            r.fail(*problem)
+
+    workspace = workspace_section(r, r.require(data, "workspace", ""), mech_cls)
+
+    # indices
+    idx_raw = r.mapping(r.require(data, "indices", ""), "indices")
+    if not idx_raw:
+        r.fail("indices", "expected at least one index")
+    indices: dict[str, IndexSpec] = {}
+    for iname, ival in idx_raw.items():
+        ipath = f"indices.{iname}"
+        im = r.mapping(ival if ival is not None else {}, ipath)
+        r.only(im, ipath, {"kind", "convention", "sense", "options"})
+        kind = r.string(im.get("kind", iname), f"{ipath}.kind")
+        if kind not in INDEX_KINDS:
+            r.fail(f"{ipath}.kind", f"unknown index {kind!r}; expected one of {', '.join(sorted(INDEX_KINDS))}")
+        spec = INDEX_KINDS[kind]
+        conv = im.get("convention", spec.default_convention)
+        if spec.conventions:
+            conv = r.string(conv, f"{ipath}.convention", choices=set(spec.conventions))
+        elif conv is not None:
+            r.fail(f"{ipath}.convention", f"index {kind!r} has no conventions")
+        if kind not in mech_cls.supported_indices:
+            r.fail(f"{ipath}.kind", f"index {kind!r} is not available for mechanism {mech_name!r}; expected one of {', '.join(mech_cls.supported_indices)}")
+        sense = r.string(im.get("sense", spec.sense), f"{ipath}.sense", choices={"min", "max"})
+        opts = im.get("options", {}) or {}
+        opts = dict(r.mapping(opts, f"{ipath}.options"))
+        for ok, ov in opts.items():
+            opts[ok] = r.number(ov, f"{ipath}.options.{ok}", positive=(ok == "k"))
+        # the joint stiffness k of K = J^T k J: the mechanism's parameter unless the index sets its own
+        if kind in ("stiffness", "axis_stiffness") and "k" not in opts and "k" in mech_cls.fixed_parameters:
+            opts["k"] = float(params.get("k", mech_cls.fixed_parameters["k"]))
+        indices[iname] = IndexSpec(iname, kind, conv, sense, opts)
+
+    optimizer = optimizer_section(r, data.get("optimizer"), dvs, indices, mech_cls)
+
+    reference: dict[str, dict[str, float]] = {}
+    if data.get("reference") is not None:
+        ref = r.mapping(data["reference"], "reference")
+        for dname, vals in ref.items():
+            rpath = f"reference.{dname}"
+            vm = r.mapping(vals, rpath)
+            reference[dname] = {}
+            for k, v in vm.items():
+                if k not in indices and k != "objective":
+                    r.fail(f"{rpath}.{k}", f"unknown index; expected one of {', '.join(indices)}")
+                reference[dname][k] = r.number(v, f"{rpath}.{k}")
+
+    return Config(mechanism_class=mech_cls, source=source, mechanism=mech_name, name=name, parameters=params,
+                  design_variables=dvs, designs=designs, workspace=workspace, indices=indices,
+                  optimizer=optimizer, reference=reference, raw=dict(data))
+
+
+def _units(r: Reader, v: Mapping, path: str, decl) -> float:
+    """The factor to SI of the entry's ``unit`` (the units its kind allows)."""
+    allowed = tuple(decl.units) if decl is not None else ("m", "mm", "rad", "deg")
+    if v.get("unit") is not None and not allowed:
+        r.fail(f"{path}.unit", f"{decl.name} is {'a ' + decl.kind if decl.kind != 'number' else 'a plain number'}: it takes no unit")
+    return UNITS[r.unit(v.get("unit"), f"{path}.unit", allowed=allowed)]
+
+
+def _check_value(r: Reader, decl, x: float, path: str) -> None:
+    problem = decl.problem(x) if decl is not None else None
+    if problem:
+        r.fail(path, problem)
+
+
+def _param_value(r: Reader, v: Any, path: str, decl) -> float:
+    if decl is not None and decl.kind == "switch" and not isinstance(v, Mapping):
+        x, problem = decl.choice(v)
+        if problem:
+            r.fail(path, problem)
+        return x
+    if isinstance(v, Mapping):
+        r.only(v, path, {"value", "unit"})
+        scale = _units(r, v, path, decl)
+        vpath = f"{path}.value"
+        x = r.number(r.require(v, "value", path), vpath) * scale
+    else:
+        vpath = path
+        x = r.number(v, path)
+    _check_value(r, decl, x, vpath)
+    return x
+
+
+def _design_variable(r: Reader, name: str, v: Any, path: str, decl) -> DesignVariable:
+    if not isinstance(v, Mapping):
+        x = r.number(v, path)
+        _check_value(r, decl, x, path)
+        return DesignVariable(name, x, None)
+    r.only(v, path, {"value", "bounds", "unit"})
+    scale = _units(r, v, path, decl)
+    unit = v.get("unit")
+    value = r.number(r.require(v, "value", path), f"{path}.value") * scale
+    _check_value(r, decl, value, f"{path}.value")
+    bounds = None
+    if v.get("bounds") is not None:
+        bounds = r.pair(v["bounds"], f"{path}.bounds", scale=scale)
+        if not (bounds[0] <= value <= bounds[1]):
+            r.fail(f"{path}.value", f"value {show(v['value'])} is outside the bounds {show(list(v['bounds']))}")
+        for end in bounds:
+            _check_value(r, decl, end, f"{path}.bounds")
+    return DesignVariable(name, value, bounds, unit)
+
+
+def _check_design(r: Reader, mech_cls, design: dict, path: str) -> None:
+    for k, x in design.items():
+        _check_value(r, mech_cls.param(k), x, f"{path}.{k}")
+    problem = mech_cls.check_design(design)
+    if problem:
+        key, msg = problem
+        r.fail(f"{path}.{key}" if key else path, msg)

@@ -1,0 +1,94 @@
+"""The validated configuration as plain typed objects (all values SI)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..workspace import WorkspaceSpec
+from .reader import UNITS, ConfigError
+
+__all__ = ["DesignVariable", "IndexSpec", "OptimizerSpec", "Config", "WorkspaceSpec"]
+
+
+@dataclass(frozen=True)
+class DesignVariable:
+    """A design parameter: its initial value and, if it is optimized, its bounds (SI)."""
+
+    name: str
+    value: float
+    bounds: tuple[float, float] | None
+    unit: str | None = None  # the unit the config wrote it in (for display)
+
+    @property
+    def free(self) -> bool:
+        return self.bounds is not None and self.bounds[1] > self.bounds[0]
+
+    def display(self, x: float) -> float:
+        """SI value -> the unit of the config (degrees stay degrees in tables)."""
+        return x / UNITS[self.unit] if self.unit in ("deg", "mm") else x
+
+
+@dataclass(frozen=True)
+class IndexSpec:
+    """A performance index as the config names it."""
+
+    name: str
+    kind: str
+    convention: str | None
+    sense: str  # "min" or "max"
+    options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class OptimizerSpec:
+    """Settings of the weighted-sum GA and of the Pareto runs (see optdesign.optimize)."""
+
+    algorithm: str = "paper_ga"
+    population: int = 50
+    generations: int = 100
+    crossover_probability: float = 0.8
+    elites: int = 2
+    mutation_probability: float = 0.2
+    fitness_scaling: str = "rank"
+    seed: int = 1
+    weights: dict[str, float] = field(default_factory=dict)
+    normalization: str = "sense"  # or "paper_literal"
+    pareto_algorithms: tuple[str, ...] = ("nsga2", "nsga3")
+    pareto_population: int = 100
+    pareto_generations: int = 100
+    extra_objectives: tuple[str, ...] = ()
+    singularity_threshold: float = 1e3
+    stroke_limits: tuple[float, float] | None = None
+    min_transmission: float = 0.0
+    checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
+
+
+@dataclass
+class Config:
+    """A validated configuration.  All values are SI."""
+
+    source: str
+    mechanism: str
+    name: str
+    parameters: dict[str, float]
+    design_variables: dict[str, DesignVariable]
+    designs: dict[str, dict[str, float]]
+    workspace: WorkspaceSpec
+    indices: dict[str, IndexSpec]
+    optimizer: OptimizerSpec
+    reference: dict[str, dict[str, float]]
+    raw: dict
+    #: the mechanism class (a registered one, or one built from a description)
+    mechanism_class: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def free_variables(self) -> list[DesignVariable]:
+        return [v for v in self.design_variables.values() if v.free]
+
+    def design(self, name: str) -> dict[str, float]:
+        if name not in self.designs:
+            raise ConfigError(self.source, "designs", f"no design named {name!r}; the config has {', '.join(self.designs) or 'none'}")
+        return dict(self.designs[name])
+
+    def initial_design(self) -> dict[str, float]:
+        return {k: v.value for k, v in self.design_variables.items()}

@@ -1,0 +1,11 @@
+"""The 3-P(4S) translational vibration table (seed paper 001): the numpy model
+(:mod:`.model`, the reference), its compiled path (:mod:`.compiled` with the
+numba kernels :mod:`.kernels`, :mod:`.ik_kernels`, :mod:`.fk_kernels`) and its
+MuJoCo check (:mod:`.mujoco`)."""
+from .dynamics import mass_coefficients, platform_mass, solve_T
+from .geometry import E, T, Z, skew
+from .model import PAPER_MASSES, P4S
+from .symbolic import symbolic_model
+
+__all__ = ["P4S", "E", "T", "Z", "PAPER_MASSES", "skew", "mass_coefficients", "platform_mass", "solve_T",
+           "symbolic_model"]

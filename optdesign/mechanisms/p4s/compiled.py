@@ -1,0 +1,329 @@
+"""The 3-P(4S)'s compiled path: numba kernels with the numpy model as fallback.
+
+* :func:`global_statistics` answers the mechanism seam (``P4S.global_statistics``):
+  per design, inverse kinematics, Jacobian, mass matrix, the local dynamic,
+  stiffness and isotropy indices and the reachable mask in one parallel pass
+  (:mod:`.kernels`), reduced to mean, min, max and standard deviation over the
+  reachable points (see ``docs/performance.md``);
+* :func:`inverse` and :func:`jacobian` (:mod:`.ik_kernels`) and
+  :func:`forward` (:mod:`.fk_kernels`) back the public methods of
+  :class:`~.model.P4S`.
+
+Each kernel module loads lazily and independently; every function returns
+``None`` (and the caller runs the numpy model) when the fast path is switched
+off (``OPTDESIGN_FAST=0``, :func:`optdesign.fast.set_enabled`), numba cannot
+be imported, a kernel fails to compile, or the request is outside what the
+kernels compute (indices other than ``dynamic``, ``stiffness``
+(``lambda_min_K``, ``sqrt_lambda_min_K``) and ``isotropy`` (``frobenius``,
+``two_norm``), options other than a positive ``k``, designs not of shape
+``()``, ``(D,)`` or ``(D, 1)``).
+
+Results equal the numpy path's to 1e-12 relative (typically 1e-14: closed-form
+eigenvalues against LAPACK; points with cond(J) >= 1000 are handed to the
+numpy path), the reachable mask bitwise, and do not depend on the number of
+threads.  Inverse kinematics and the Jacobian are bitwise the numpy model's
+(the same operations in the same order).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...fast import KernelModule, enabled
+from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singular_values
+from .dynamics import mass_coefficients, platform_mass, solve_T
+
+__all__ = ["LOCAL", "FK", "IK", "VALUE_NAMES", "SUPPORTED", "design_constants", "p4s_local", "p4s_summary",
+           "global_statistics", "plan", "forward", "inverse", "jacobian"]
+
+LOCAL = KernelModule("optdesign.mechanisms.p4s.kernels")
+FK = KernelModule("optdesign.mechanisms.p4s.fk_kernels")
+IK = KernelModule("optdesign.mechanisms.p4s.ik_kernels")
+
+#: index kinds and conventions the fused kernel computes (None: the default convention)
+SUPPORTED = {
+    "dynamic": (None,),
+    "stiffness": (None, "lambda_min_K", "sqrt_lambda_min_K"),
+    "isotropy": (None, "frobenius", "two_norm"),
+}
+VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
+
+
+# ---------------------------------------------------------------------- inputs
+def _n_designs(mech) -> int | None:
+    """D for design parameters of shape (), (D,) or (D, 1); None otherwise."""
+    shape = mech.design_shape
+    if len(shape) > 2 or (len(shape) == 2 and shape[1] != 1):
+        return None
+    return int(np.prod(shape)) if len(shape) else 1
+
+
+def design_constants(mech) -> np.ndarray:
+    """Per-design constants (D, 15) of a P4S whose parameters are scalars, (D,)
+    or (D, 1): ``rho - r_b``, L, L^2, the mass-matrix coefficients c0, alpha,
+    beta (:func:`.model.mass_coefficients`) and the nine components of the rail
+    directions m_i (the numpy model's own expressions, so that inverse
+    kinematics agrees bitwise)."""
+    shape = mech.design_shape
+    D = _n_designs(mech)
+    if D is None:
+        raise ValueError(f"design parameters of shape {shape}: expected (D,) or (D, 1)")
+    rho = np.asarray(mech.rho, dtype=float)
+    off = np.broadcast_to(rho - np.asarray(mech.r_b, dtype=float), shape).reshape(D)
+    L = np.broadcast_to(np.asarray(mech.L, dtype=float), shape).reshape(D)
+    m = np.broadcast_to(mech.rail_directions(), shape + (3, 3)).reshape(D, 9)
+    c0, alpha, beta = (np.broadcast_to(c, shape).reshape(D) for c in mass_coefficients(mech))
+    P = np.empty((D, 15))
+    P[:, 0] = off
+    P[:, 1] = L
+    P[:, 2] = L ** 2
+    P[:, 3] = c0
+    P[:, 4] = alpha
+    P[:, 5] = beta
+    P[:, 6:15] = m
+    return np.ascontiguousarray(P)
+
+
+def _points(X) -> np.ndarray:
+    """X as a C-contiguous float (N, 3) array (no copy when it already is one)."""
+    X = np.ascontiguousarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ValueError(f"expected points (N, 3), got shape {X.shape}")
+    return X
+
+
+# ---------------------------------------------------------------------- local indices
+def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
+    """The numpy path's local values (5, K) at the pairs (design dd[i], point
+    jj[i]): the ill-conditioned points the kernel leaves to LAPACK."""
+    shape = mech.design_shape
+    D = _n_designs(mech)
+    params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] for k, v in mech.params.items()}
+    m = type(mech)(**params)
+    Xk = np.asarray(X, dtype=float)[jj]
+    K = len(dd)
+    out = np.full((5, K), np.nan)
+    with np.errstate(all="ignore"):
+        # the numpy model's own operations, with the branch state computed once
+        # and one SVD call for the stack [J; M] (each matrix's singular values
+        # do not depend on the stack it is in)
+        st = m.branch_state(Xk)
+        J = st["n"] / st["s"][..., None]
+        if want[0]:
+            sv, good = singular_values(np.concatenate([J, solve_T(J, platform_mass(m, st))]))
+            sJ, gJ, sM, gM = sv[:K], good[:K], sv[K:], good[K:]
+            out[0] = sigma_max_of(sM, gM)
+        else:
+            sJ, gJ = singular_values(J)
+        if want[1] or want[2]:
+            out[2] = sigma_min_of(sJ, gJ)   # the numpy path's sqrt(k) s with k = 1 (exactly s)
+            out[1] = out[2] * out[2]        # and its k * s * s
+        if want[3]:
+            out[3] = cond_fro_of(sJ, gJ, J.shape)
+        if want[4]:
+            out[4] = cond_2_of(sJ, gJ, J.shape)
+    return out
+
+
+def p4s_local(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Local values at points X (N, 3) of the designs of ``mech`` with the fused
+    kernel: ``({"dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2"}: (D, N)),
+    reachable (D, N))``, NaN where not reachable; ill-conditioned points come
+    from the numpy path.  Raises RuntimeError if the kernels are not available."""
+    k = LOCAL.require()
+    vals, codes = k.p4s_local(design_constants(mech), _points(X), bool(two_norm))
+    reach = codes != 0
+    vals = np.where(reach[None], vals, np.nan)
+    dd, jj = np.nonzero(codes == 2)
+    if len(dd):
+        vals[:, dd, jj] = _lapack_values(mech, X, dd, jj, (True, True, True, True, two_norm))
+    out = {n: vals[i] for i, n in enumerate(VALUE_NAMES)}
+    if not two_norm:
+        del out["cond_2"]
+    return out, reach
+
+
+def _merge(stats, counts, extra, dd, want):
+    """Add the values extra (5, K) of designs dd (K,) to the kernel's per-design
+    (sum, min, max, centred sum of squares) (5, 4, D) and counts (D,)."""
+    D = counts.shape[0]
+    nb = np.bincount(dd, minlength=D)
+    n = counts + nb
+    has_a, has_b = counts > 0, nb > 0
+    stats = stats.copy()
+    with np.errstate(all="ignore"):
+        for v in range(5):
+            if not want[v]:
+                continue
+            x = extra[v]
+            sb = np.bincount(dd, weights=x, minlength=D)
+            mb = sb / nb
+            m2b = np.bincount(dd, weights=(x - mb[dd]) ** 2, minlength=D)
+            lob = np.full(D, np.inf)
+            np.minimum.at(lob, dd, x)
+            hib = np.full(D, -np.inf)
+            np.maximum.at(hib, dd, x)
+            sa, loa, hia, m2a = stats[v]
+            delta = mb - sa / counts
+            both = has_a & has_b
+            stats[v, 0] = np.where(both, sa + sb, np.where(has_b, sb, sa))
+            stats[v, 1] = np.where(both, np.minimum(loa, lob), np.where(has_b, lob, loa))
+            stats[v, 2] = np.where(both, np.maximum(hia, hib), np.where(has_b, hib, hia))
+            stats[v, 3] = np.where(both, m2a + m2b + delta * delta * counts * nb / n, np.where(has_b, m2b, m2a))
+    return stats, n
+
+
+def p4s_summary(mech, X, want=(True, True, True, True, True)):
+    """Per-design statistics over the reachable points: (stats (5, 4, D) with
+    mean/min/max/std of dynamic, sigma_min^2, sigma_min, cond_fro, cond_2 (NaN
+    for values not wanted and for designs without a reachable point); counts
+    (D,); reachable (D, N)).  Points the kernel flags as ill-conditioned are
+    evaluated with the numpy path and merged in."""
+    k = LOCAL.require()
+    w = np.array([bool(v) for v in want], dtype=np.bool_)
+    sums, counts, codes, nhard = k.p4s_summary(design_constants(mech), _points(X), w, bool(w[4]))
+    if nhard.any():
+        rows = np.flatnonzero(nhard)
+        r, jj = np.nonzero(codes[rows] == 2)
+        dd = rows[r]
+        sums, counts = _merge(sums, counts, _lapack_values(mech, X, dd, jj, w), dd, w)
+    out = np.full_like(sums, np.nan)
+    ok = counts > 0
+    with np.errstate(all="ignore"):
+        mean = sums[:, 0] / counts
+        out[:, 0] = np.where(ok, mean, np.nan)
+        out[:, 1] = np.where(ok, sums[:, 1], np.nan)
+        out[:, 2] = np.where(ok, sums[:, 2], np.nan)
+        out[:, 3] = np.where(ok & np.isfinite(mean), np.sqrt(sums[:, 3] / counts), np.nan)
+    out[~w] = np.nan
+    return out, counts, codes != 0
+
+
+def plan(requests):
+    """[(name, kernel row, factor)] for the requested indices the kernel
+    computes (the others are left out: the caller computes them with the numpy path)."""
+    out = []
+    for req in requests:
+        conv = req.convention
+        if req.kind not in SUPPORTED or conv not in SUPPORTED[req.kind]:
+            continue
+        opts = req.option_dict()
+        kval = opts.pop("k", 1.0)
+        if opts:
+            continue
+        try:
+            kval = float(kval)
+        except (TypeError, ValueError):
+            continue
+        if not (math.isfinite(kval) and kval > 0.0):
+            continue
+        if req.kind == "dynamic":
+            out.append((req.name, 0, 1.0))
+        elif req.kind == "stiffness":
+            if conv in (None, "lambda_min_K"):
+                out.append((req.name, 1, kval))
+            else:
+                out.append((req.name, 2, math.sqrt(kval)))
+        else:
+            out.append((req.name, 3 if conv in (None, "frobenius") else 4, 1.0))
+    return out
+
+
+def global_statistics(mech, requests, X):
+    """The seam's answer from the fused kernel (see ``Mechanism.global_statistics``),
+    or None when it does not apply."""
+    if not enabled():
+        return None
+    rows = plan(requests)
+    if not rows or _n_designs(mech) is None:
+        return None
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3 or LOCAL.get() is None:
+        return None
+    want = [False] * 5
+    for _, row, _ in rows:
+        want[row] = True
+    res = LOCAL.guarded(p4s_summary, mech, X, want)
+    if res is None:
+        return None
+    stats, counts, reach = res
+    summary = {}
+    for n, row, fac in rows:
+        st = stats[row]
+        if fac != 1.0:
+            st = st * fac
+        summary[n] = {"mean": st[0], "min": st[1], "max": st[2], "std": st[3], "count": counts}
+    return summary, reach
+
+
+# ---------------------------------------------------------------------- kinematics
+def forward(mech, Q, out=None):
+    """Forward kinematics of one design (scalar parameters) for strokes Q (N, 3)
+    with the compiled kernel (the numpy model's assembly mode), or None when the
+    kernel does not apply.  ``out``: an optional C-contiguous float (N, 3) array
+    to write into (and return)."""
+    Q = np.asarray(Q, dtype=float)
+    if not enabled() or mech.design_shape != () or Q.ndim != 2 or Q.shape[1] != 3 or FK.get() is None:
+        return None
+    c, s = math.cos(float(mech.phi)), math.sin(float(mech.phi))
+    F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
+    Q = np.ascontiguousarray(Q)
+    if out is None:
+        out = np.empty(Q.shape)
+    elif (out.shape != Q.shape or out.dtype != np.float64 or not out.flags.c_contiguous
+          or not out.flags.writeable):
+        raise ValueError(f"out must be a writeable C-contiguous float64 array of shape {Q.shape}")
+    return FK.guarded(FK.get().p4s_forward, F, Q, out)
+
+
+def _ik_inputs(mech, X):
+    X = np.asarray(X, dtype=float)
+    shape = mech.design_shape
+    if not enabled() or not (shape == () or (len(shape) == 2 and shape[1] == 1)):
+        return None
+    if X.ndim != 2 or X.shape[1] != 3 or IK.get() is None:
+        return None
+    D = _n_designs(mech)
+    m = np.broadcast_to(mech.rail_directions(), shape + (3, 3)).reshape(D, 9)
+    off = np.broadcast_to(np.asarray(mech.rho, float) - np.asarray(mech.r_b, float), shape).reshape(D)
+    L = np.broadcast_to(np.asarray(mech.L, float), shape).reshape(D)
+    P = np.ascontiguousarray(np.concatenate([off[:, None], L[:, None], m], axis=1))
+    return P, np.ascontiguousarray(X)
+
+
+def _shaped(mech, A):
+    """Kernel output (D, N, ...) to the numpy model's shape: (N, ...) for one design."""
+    return A[0] if mech.design_shape == () else A
+
+
+def inverse(mech, X):
+    """Strokes (N, 3) or (D, N, 3) from the compiled kernel, bitwise the numpy
+    model's; None when the kernel does not apply."""
+    inp = _ik_inputs(mech, X)
+    if inp is None:
+        return None
+    res = IK.guarded(IK.get().p4s_inverse, *inp)
+    return None if res is None else _shaped(mech, res)
+
+
+def jacobian(mech, X):
+    """J (N, 3, 3) or (D, N, 3, 3) from the compiled kernel, bitwise the numpy
+    model's; None when the kernel does not apply."""
+    inp = _ik_inputs(mech, X)
+    if inp is None:
+        return None
+    res = IK.guarded(IK.get().p4s_jacobian, *inp)
+    return None if res is None else _shaped(mech, res)
+
+
+def bare_kernel(mech, X):
+    """(a call of the fused kernel alone for the indices dynamic, stiffness and
+    Frobenius isotropy, the share of points it leaves to LAPACK): for
+    ``optdesign bench``."""
+    k = LOCAL.require()
+    P = design_constants(mech)
+    Xc = _points(X)
+    want = np.array([True, True, False, True, False])
+    codes = k.p4s_summary(P, Xc, want, False)[2]
+    return (lambda: k.p4s_summary(P, Xc, want, False)), float(np.mean(codes == 2))

@@ -1,1 +1,0 @@
-"""Independent checks of our models against other engines (MuJoCo)."""

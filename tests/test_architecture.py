@@ -1,0 +1,152 @@
+"""The import rules of the flow, checked from the source (ast), so they stay true.
+
+Data goes one way: config -> mechanisms -> workspace -> indices -> evaluate ->
+optimize -> runs -> CLI.  A mechanism knows geometry and physics, not the
+optimizer; an index knows matrices, not YAML; the optimizer knows design
+vectors and objective values, not mechanisms; nothing imports the CLI.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "optdesign"
+
+#: the modules every layer may use: plain helpers that import no other part of the package
+BOTTOM = {"optdesign.linalg", "optdesign.io", "optdesign.fast", "optdesign.fast._jit", "optdesign.tables",
+          "optdesign.symbolic", "optdesign.screws"}
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Every optdesign module a file imports (relative imports resolved; for
+    ``from X import y`` both X and X.y, since y may be a module)."""
+    name = _module_name(path)
+    pkg = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("optdesign"))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg.split(".")
+                base = base[:len(base) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if not mod.startswith("optdesign"):
+                continue
+            out.add(mod)
+            out.update(f"{mod}.{a.name}" for a in node.names)
+    return out
+
+
+def _modules():
+    return sorted((_module_name(p), p) for p in PKG.rglob("*.py"))
+
+
+MODULES = _modules()
+
+
+def _under(mod: str, prefix: str) -> bool:
+    return mod == prefix or mod.startswith(prefix + ".")
+
+
+def _violations(allowed_prefixes, importer_prefix):
+    bad = []
+    for name, path in MODULES:
+        if not _under(name, importer_prefix):
+            continue
+        for imp in _imports(path):
+            if any(_under(imp, b) for b in BOTTOM) or _under(imp, importer_prefix) or imp == "optdesign":
+                continue
+            if not any(_under(imp, a) for a in allowed_prefixes):
+                bad.append(f"{name} imports {imp}")
+    return bad
+
+
+def test_the_checker_sees_imports():
+    """The rule checker itself: it finds relative and absolute imports."""
+    imps = _imports(PKG / "evaluate.py")
+    assert "optdesign.config" in imps and "optdesign.mechanisms" in imps and "optdesign.workspace" in imps
+    imps = _imports(PKG / "mechanisms" / "p4s" / "compiled.py")
+    assert "optdesign.linalg" in imps and "optdesign.mechanisms.p4s.dynamics" in imps
+    assert len(MODULES) > 40
+
+
+def test_nothing_imports_the_cli():
+    bad = []
+    for name, path in MODULES:
+        if name == "optdesign.cli" or _under(name, "optdesign.commands"):
+            continue
+        for imp in _imports(path):
+            if _under(imp, "optdesign.cli") or _under(imp, "optdesign.commands"):
+                bad.append(f"{name} imports {imp}")
+    assert not bad, bad
+    # and the commands never import the CLI module (no cycle)
+    for name, path in MODULES:
+        if _under(name, "optdesign.commands"):
+            assert not any(_under(i, "optdesign.cli") for i in _imports(path)), name
+
+
+@pytest.mark.parametrize("layer, allowed", [
+    # the bottom of the flow: a mechanism knows geometry and physics only
+    ("optdesign.mechanisms", ()),
+    ("optdesign.workspace", ()),
+    ("optdesign.indices", ()),
+    # config validates against the mechanisms' declarations, the workspace spec and the index kinds
+    ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # evaluate: the one place that builds mechanisms from a config
+    ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # the optimizer knows design vectors and objective values; the run folder is where it writes
+    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
+                            "optdesign.report_html")),
+    ("optdesign.runs", ()),
+    ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices")),
+])
+def test_layers_import_only_what_lies_below(layer, allowed):
+    assert not _violations(allowed, layer), _violations(allowed, layer)
+
+
+def test_no_config_below_evaluate():
+    for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices", "optdesign.linalg",
+                  "optdesign.fast"):
+        for name, path in MODULES:
+            if _under(name, layer):
+                assert not any(_under(i, "optdesign.config") for i in _imports(path)), name
+
+
+def test_optimize_does_not_import_mechanisms():
+    for name, path in MODULES:
+        if _under(name, "optdesign.optimize"):
+            assert not any(_under(i, "optdesign.mechanisms") for i in _imports(path)), name
+
+
+def test_a_mechanisms_own_code_is_not_named_outside_it():
+    """A mechanism's modules (its compiled path above all) are imported only
+    inside its own package; elsewhere mechanisms are reached through the
+    registry (optdesign.mechanisms) and the base interface.  The paper studies
+    (optdesign.studies) are the one place that names a mechanism on purpose."""
+    own = {}
+    for name, _ in MODULES:
+        parts = name.split(".")
+        if len(parts) >= 3 and parts[1] == "mechanisms" and parts[2] not in ("base", "params"):
+            own[name] = "optdesign.mechanisms." + parts[2].removesuffix("_fk")
+    bad = []
+    for name, path in MODULES:
+        if _under(name, "optdesign.studies"):
+            continue
+        for imp in _imports(path):
+            home = own.get(imp)
+            if home is not None and not _under(name, home) and not name.startswith(home + "_"):
+                bad.append(f"{name} imports {imp}")
+    assert not bad, bad
