@@ -2,7 +2,7 @@
 
 * A run is killed with SIGINT, SIGTERM or SIGKILL at a randomly chosen
   generation (seeded), its folder is checked file by file (every file under
-  its real name is whole: JSON parses, checkpoints unpickle, CSV rows are
+  its real name is whole: JSON parses, checkpoints load as data, CSV rows are
   complete), and it is resumed (killed again once, then finished): the
   results equal those of an uninterrupted run with the same seed.
 * Eight processes that create a run folder of the same name in the same
@@ -93,14 +93,14 @@ def check_folder(folder: Path, config_text: str, allow_tmp: bool) -> int:
             assert len({len(r) for r in rows}) == 1, p
         elif p.suffix == ".png":
             assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", p
-        elif p.name == "checkpoint.pkl":
-            gens += len(rf.load_checkpoint(p.parent.name)["history"])
+        elif p.name == "checkpoint.npz":
+            gens += rf.load_checkpoint(p.parent.name)[0]["history"]["rows"]
     return gens
 
 
 def _checkpoint_writes(out: Path, seen: dict) -> int:
     """Count checkpoint replacements seen so far (each generation writes one)."""
-    for p in out.rglob("checkpoint.pkl"):
+    for p in out.rglob("checkpoint.npz"):
         try:
             ino = p.stat().st_ino
         except FileNotFoundError:
@@ -261,7 +261,7 @@ def _interrupted_folder(tiny: Path, out: Path) -> Path:
 
 def _open_checkpoint(f: Path) -> Path:
     """The checkpoint of the stage the interruption cut short (the one resume reads)."""
-    (p,) = [p for p in f.rglob("checkpoint.pkl") if not (p.parent / "result.json").exists()]
+    (p,) = [p for p in f.rglob("checkpoint.npz") if not (p.parent / "result.json").exists()]
     return p
 
 

@@ -110,8 +110,8 @@ def test_a_stop_saves_a_checkpoint_whatever_the_interval(finished, tmp_path):
     with pytest.raises(Interrupted):
         start_run(cfg, seed=7, out=tmp_path, name="cut", stop_after=11)   # inside the second stage
     (folder,) = list(tmp_path.iterdir())
-    (ck,) = list(folder.rglob("checkpoint.pkl"))
-    assert len(RunFolder(folder).load_checkpoint(ck.parent.name)["history"]) == 11 - 8
+    (ck,) = list(folder.rglob("checkpoint.npz"))
+    assert RunFolder(folder).load_checkpoint(ck.parent.name)[0]["history"]["rows"] == 11 - 8
     res = resume_run(folder)
     assert _strip(res.results) == _strip(finished.results)
 
@@ -163,7 +163,7 @@ def test_corrupted_and_foreign_folders_give_clear_errors(tmp_path, finished):
     with pytest.raises(Interrupted):
         start_run(cfg, seed=7, out=tmp_path / "c", stop_after=2)
     (folder,) = list((tmp_path / "c").iterdir())
-    (ck,) = list(folder.rglob("checkpoint.pkl"))
+    (ck,) = list(folder.rglob("checkpoint.npz"))
     ck.write_bytes(b"garbage")
     with pytest.raises(RunFolderError, match="corrupted checkpoint"):
         resume_run(folder)
@@ -180,7 +180,7 @@ def test_sigterm_leaves_an_incomplete_folder_that_resumes(tmp_path, finished):
                              "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
     while time.time() < deadline and proc.poll() is None:
-        if list(out.rglob("checkpoint.pkl")):
+        if list(out.rglob("checkpoint.npz")):
             break
         time.sleep(0.05)
     proc.send_signal(signal.SIGTERM)
