@@ -1,6 +1,7 @@
 """optdesign run CONFIG | --resume RUN_DIR: run (or finish) an optimization."""
 from __future__ import annotations
 
+import signal
 import sys
 
 COMMAND = "run"
@@ -67,10 +68,13 @@ def execute(args, after=None, cfg=None) -> int:
             after(res)
         return 0
     finally:
-        # the process that is the command keeps ignoring signals until it has
-        # exited (its status stays the manifest's); a caller in-process gets its handlers back
-        if not (done and getattr(args, "process_entry", False)):
-            stop.restore()
+        stop.restore()
+        if done and getattr(args, "process_entry", False):
+            # the process that is the command ignores them until it has exited
+            # (Python's own handlers are reset while the interpreter shuts down;
+            # an ignored signal stays ignored), so its status stays the manifest's
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, signal.SIG_IGN)
 
 
 def run(args) -> int:

@@ -210,8 +210,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         from .report import write_report
 
         write_report(cfg, folder, results, stages)
+        stop.completed = True   # from here a signal changes nothing: the manifest is about to say complete
         folder.complete(wall_time_s=wall, evaluations=evals)
-        stop.completed = True   # from here a signal changes nothing: the manifest says complete
         return PipelineResult(folder, results, stages)
     except KeyboardInterrupt as exc:
         if not isinstance(exc, Interrupted):
