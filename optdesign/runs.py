@@ -123,10 +123,6 @@ def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
-def _is_number(v) -> bool:
-    return (_is_int(v) or isinstance(v, float)) and math.isfinite(v)
-
-
 def _check_manifest(m: Any, path: Path) -> dict:
     if not isinstance(m, dict):
         raise RunFolderError(f"{path}: corrupted (not a JSON object)")
@@ -140,7 +136,8 @@ def _check_manifest(m: Any, path: Path) -> dict:
         "run_id": (lambda v: isinstance(v, str) and len(v) == 16, "a run id"),
         "config_sha256": (lambda v: isinstance(v, str) and len(v) == 64, "a SHA-256"),
         "binding": (lambda v: isinstance(v, str) and len(v) == 32, "a binding hash"),
-        "wall_time_s": (lambda v: _is_number(v) and v >= 0, "a number of seconds"),
+        "wall_time_s": (lambda v: (_is_int(v) or isinstance(v, float)) and math.isfinite(v) and v >= 0,
+                        "a number of seconds"),
         "evaluations": (lambda v: _is_int(v) and v >= 0, "a non-negative integer"),
         "stages_done": (lambda v: isinstance(v, list) and all(isinstance(s, str) for s in v), "a list of stage names"),
         "stages": (lambda v: isinstance(v, dict) and all(isinstance(r, dict) and isinstance(r.get("files"), dict)
@@ -206,13 +203,17 @@ class RunFolder:
     def manifest_path(self) -> Path:
         return self.path / "manifest.json"
 
-    def read_manifest(self) -> dict:
+    def read_manifest(self, strict: bool = True) -> dict:
+        """The manifest, checked key by key; ``strict=False`` (summaries, read
+        only) also takes one of the previous format version as it is."""
         if not self.path.is_dir():
             raise RunFolderError(f"{self.path}: not a run folder (no such directory)")
         try:
             m = _read_json(self.manifest_path)
         except FileNotFoundError:
             raise RunFolderError(f"{self.path}: not a run folder (no manifest.json)") from None
+        if not strict and isinstance(m, dict) and m.get("format_version") == FORMAT_VERSION - 1:
+            return m
         return _check_manifest(m, self.manifest_path)
 
     def write_manifest(self, m: dict) -> None:
@@ -230,11 +231,9 @@ class RunFolder:
     def config_text(self) -> str:
         p = self.path / "config.yaml"
         try:
-            data = _read_bytes(p, MAX_CONFIG)
+            return _read_bytes(p, MAX_CONFIG).decode("utf-8")
         except FileNotFoundError:
             raise RunFolderError(f"{self.path}: not a run folder (no config.yaml)") from None
-        try:
-            return data.decode("utf-8")
         except UnicodeDecodeError:
             raise RunFolderError(f"{p}: not UTF-8 text") from None
 
@@ -246,10 +245,7 @@ class RunFolder:
         every file of a finished stage and every checkpoint recorded at an
         interruption.  Returns the manifest (with ``write``, its record of
         interrupted checkpoints cleared: the run goes on from them)."""
-        m = self.read_manifest()
-        cp = self.path / "config.yaml"
-        if not cp.exists():
-            raise RunFolderError(f"{self.path}: not a run folder (no config.yaml)")
+        m, cp = self.read_manifest(), self.path / "config.yaml"
         if _sha256(self.config_text().encode("utf-8")) != m["config_sha256"]:
             raise RunFolderError(f"{cp}: changed since the run started (its SHA-256 is not the manifest's "
                                  "config_sha256); put the original back or start a new run")
@@ -261,6 +257,9 @@ class RunFolder:
         st = self.path / "stages"
         if st.exists() and (st.is_symlink() or not st.is_dir()):
             raise RunFolderError(f"{st}: not a directory")
+        for p in [*self.path.iterdir(), *st.glob("*"), *st.glob("*/*")]:   # writes stay inside the folder
+            if p.is_symlink():
+                raise RunFolderError(f"{p}: a symbolic link (a run folder holds none)")
         for rec in m["stages"].values():
             self._verify_files(rec["files"], "the stage finished")
         for rel, want in m["checkpoints"].items():  # a deleted one restarts its stage
@@ -355,6 +354,7 @@ class RunFolder:
         return res
 
     def stage_record(self, stage: str) -> dict | None:
+        """The manifest's record of a finished stage (seed, kind, file hashes)."""
         return self.read_manifest()["stages"].get(stage)
 
     def write_stage_result(self, stage: str, result: dict, manifest: bool = True, record: dict | None = None,

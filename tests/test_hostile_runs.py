@@ -139,6 +139,10 @@ CHANGES = {
     "result.json of []": (lambda f, o: (f / DONE / "result.json").write_text("[]"), f"{DONE}/result.json"),
     "result.json of {}": (lambda f, o: (f / DONE / "result.json").write_text("{}"), f"{DONE}/result.json"),
     "front csv of a finished stage truncated": (lambda f, o: _truncate(f / "pareto_nsga2.csv"), "pareto_nsga2.csv"),
+    "a stage folder a link outside": (lambda f, o: _replace(f / "stages/pareto_nsga3", lambda p: p.symlink_to(
+        shutil.copytree(f / "stages/pareto_nsga2", f.parent / "outside"))), "stages/pareto_nsga3"),
+    "config.yaml a link (to the same text)": (lambda f, o: _replace(f / "config.yaml", lambda p: p.symlink_to(
+        shutil.copy(o / "config.yaml", f.parent / "c.yaml"))), "config.yaml"),
     "checkpoint copied from another stage": (lambda f, o: shutil.copy(
         f / "stages/pareto_nsga2/checkpoint.npz", f / NSGA3), NSGA3),
     "checkpoint copied from another stage, unrecorded": (lambda f, o: (shutil.copy(
@@ -157,7 +161,9 @@ def test_a_changed_folder_is_refused_naming_the_file(runs, tmp_path, label):
     change, named = CHANGES[label]
     f = _copy(runs["base"], tmp_path / "run")
     change(f, runs["other"])
+    outside = sorted((p, p.stat().st_mtime_ns) for p in tmp_path.glob("outside/*"))
     rc, err = _resume(f)
+    assert sorted((p, p.stat().st_mtime_ns) for p in tmp_path.glob("outside/*")) == outside   # nothing written there
     assert rc == 2, (label, rc, err)
     assert err.count("\n") == 1 and err.startswith("optdesign: error: ") and "Traceback" not in err, err
     assert str(f / named).rstrip("/") in err, (label, err)

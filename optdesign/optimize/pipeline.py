@@ -10,12 +10,9 @@
    objective the config names); the weighted-sum optimum and the named designs
    are placed against it (:mod:`.results`).
 
-Each stage runs in pymoo's loop with a data-only checkpoint at a generation
-boundary once ``optimizer.checkpoint_interval`` seconds have passed and on a
-stop request (:mod:`.stage`), so an interrupted run resumes where it stopped
-and ends with the same result as an uninterrupted one.  Stages run in this
-process and in worker processes (:mod:`.workers`); every stage has its own
-seed, so the results do not depend on ``jobs``.
+Each stage runs in pymoo's loop with data-only checkpoints (:mod:`.stage`),
+in this process or a worker process (:mod:`.workers`); every stage has its
+own seed, so the results depend neither on ``jobs`` nor on interruptions.
 """
 from __future__ import annotations
 
@@ -25,13 +22,13 @@ from dataclasses import dataclass, field
 
 from ..config import Config
 from ..evaluate import Evaluator, workspace_of
-from ..runs import RunFolder, RunFolderError
+from ..runs import RunFolder
 from .algorithms import build_algorithm
 from .problem import DesignProblem, extra_term, index_term, weighted_sum_term
 from .progress import Progress
-from .results import check_stage_result, final_results, stage_summary
+from .results import final_results, finished_stage, stage_summary
 from .stage import run_stage
-from .workers import Interrupted, StagePool, StopRequest, default_jobs
+from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_kernels, warm_plots
 
 __all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "build_algorithm",
            "default_jobs", "PipelineResult"]
@@ -112,15 +109,6 @@ def _stage_in_worker(cfg, path, st, i, lo, hi, seed, ws, stop=None) -> dict:
     return execute_stage(cfg, RunFolder(path), st, i, lo, hi, seed, ws, stop=stop, manifest=False)
 
 
-def _finished(folder: RunFolder, st: Stage, seed: int, i: int) -> dict | None:
-    done = folder.stage_result(st.name)
-    if done is not None:
-        if folder.stage_record(st.name).get("seed") != stage_seed(seed, i):
-            raise RunFolderError(f"{folder.manifest_path}: stages.{st.name}: finished with another seed")
-        check_stage_result(done, st, folder.path / "stages" / st.name / "result.json")
-    return done
-
-
 @dataclass
 class PipelineResult:
     folder: RunFolder
@@ -131,27 +119,17 @@ class PipelineResult:
 def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None, pareto: bool = True,
                  stop_after: int | None = None, jobs: int = 1, stop: StopRequest | None = None) -> PipelineResult:
     """Run (or resume) every stage of the config's optimization in ``folder``.
-
-    ``jobs``: processes running stages at once (the single-index and Pareto
-    runs are independent; the weighted sums wait for the single-index runs).
-    ``stop``: the caller's signal state (else one is installed here).
-    ``stop_after`` (tests only) interrupts the run after that many
-    generations, as a signal would (it runs the stages one by one).
-    """
-    progress = progress or Progress(False)
-    t0 = time.perf_counter()
-    own, stop = stop is None, stop or StopRequest()
+    ``jobs``: processes running stages at once (the weighted sums wait for the
+    single-index runs); ``stop``: the caller's signal state (else one is
+    installed here); ``stop_after`` (tests only): interrupt after that many
+    generations, as a signal would (the stages then run one by one)."""
+    progress, t0 = progress or Progress(False), time.perf_counter()
+    wall_before = float(folder.verify_inputs(seed)["wall_time_s"])   # the folder is what it says it is
+    folder.update_manifest(status="running")
+    own, stop, pool = stop is None, stop or StopRequest(), None
     if own:
         stop.install()
     stop.deferred = True
-    pool = None
-    try:
-        wall_before = float(folder.verify_inputs(seed)["wall_time_s"])
-        folder.update_manifest(status="running")
-    except BaseException:
-        if own:
-            stop.restore()
-        raise
     plan = [s for s in stage_plan(cfg) if pareto or s.kind != "pareto"]
     budget = {"left": stop_after}
     jobs = 1 if stop_after is not None else max(1, int(jobs))
@@ -168,11 +146,10 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                     raise RuntimeError(f"no feasible design found for {st.index} ({st.sense}); widen the bounds or relax the constraints")
                 (lo if st.sense == "min" else hi)[st.index] = res["value"]
 
-        todo = []   # finished stages (a resumed run) are taken as they are
+        todo = []   # in the plan's order; finished stages (a resumed run) are taken as they are
         for i, st in enumerate(plan):
-            done = _finished(folder, st, seed, i)
+            done = finished_stage(folder, st, stage_seed(seed, i))
             todo.append((i, st)) if done is None else record(st, done)
-        todo.sort(key=lambda t: {"single": 0, "weighted": 1, "pareto": 2}[t[1].kind])
 
         def take():
             """The next stage that can start (the weighted sums once the single runs are done), or None."""
@@ -181,7 +158,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                     return todo.pop(n)
             return None
 
-        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=lambda: _warm_kernels(cfg, evaluator))
+        x0 = evaluator.vector(cfg.initial_design())[None, :]
+        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=lambda: warm_kernels(evaluator, x0))
         report_warm = False
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:
@@ -193,7 +171,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                 i, st = nxt
                 record(st, execute_stage(cfg, folder, st, i, lo, hi, seed, ws, progress, budget, stop, evaluator))
             elif pool.running:
-                report_warm = report_warm or _warm_report()   # idle until a worker finishes
+                report_warm = report_warm or warm_plots()   # idle until a worker finishes
                 pool.wait_any(stop, progress)
             for (i, st), res in pool.finished():
                 record(st, res)
@@ -235,26 +213,3 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             pool.close()
         if own:
             stop.restore()
-
-
-def _warm_kernels(cfg: Config, evaluator: Evaluator) -> None:
-    """One evaluation of the initial design: loads (or compiles) the compiled
-    kernels the run will use.  Only a warm-up: a failure is left for the stages."""
-    import numpy as np
-
-    try:
-        with np.errstate(all="ignore"):
-            evaluator(evaluator.vector(cfg.initial_design())[None, :])
-    except Exception:  # noqa: BLE001
-        pass
-
-
-def _warm_report() -> bool:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot  # noqa: F401
-    except Exception:  # noqa: BLE001 - the report says why plots are missing
-        pass
-    return True

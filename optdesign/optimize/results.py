@@ -11,7 +11,8 @@ from pymoo.indicators.hv import HV
 from ..runs import RunFolder, RunFolderError
 from .problem import weighted_sum, weighted_sum_term
 
-__all__ = ["population_rows", "stage_summary", "check_stage_result", "final_results", "place_against_front"]
+__all__ = ["population_rows", "stage_summary", "check_stage_result", "finished_stage", "final_results",
+           "place_against_front"]
 
 
 def population_rows(evaluator, problem, pop) -> list[dict]:
@@ -80,6 +81,17 @@ def check_stage_result(res: dict, stage, path) -> dict:
     if not ok:
         raise RunFolderError(f"{path}: not the result of a {stage.kind} stage")
     return res
+
+
+def finished_stage(folder: RunFolder, stage, seed: int) -> dict | None:
+    """The result of a stage the manifest records as finished with ``seed``
+    (its files checked), or None."""
+    done = folder.stage_result(stage.name)
+    if done is not None:
+        if folder.stage_record(stage.name).get("seed") != seed:
+            raise RunFolderError(f"{folder.manifest_path}: stages.{stage.name}: finished with another seed")
+        check_stage_result(done, stage, folder.path / "stages" / stage.name / "result.json")
+    return done
 
 
 def final_results(cfg, seed: int, stages: dict, lo: dict, hi: dict, ws, evaluator) -> dict:

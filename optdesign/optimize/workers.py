@@ -20,7 +20,8 @@ import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["Interrupted", "StopRequest", "StagePool", "STOP_FILE", "default_jobs", "set_kernel_threads"]
+__all__ = ["Interrupted", "StopRequest", "StagePool", "STOP_FILE", "default_jobs", "set_kernel_threads",
+           "warm_kernels", "warm_plots"]
 
 #: written into the run folder by the main process to stop its stage workers
 STOP_FILE = ".stop"
@@ -110,6 +111,31 @@ def set_kernel_threads(n: int | None) -> int | None:
     return old
 
 
+def warm_kernels(evaluate: Callable, X) -> None:
+    """One evaluation: loads (on a fresh installation: compiles and caches) the
+    compiled kernels before the workers start, so that they load them from the
+    cache.  Only a warm-up: a failure is left for the stages to report."""
+    import numpy as np
+
+    try:
+        with np.errstate(all="ignore"):
+            evaluate(X)
+    except Exception:  # noqa: BLE001
+        pass
+
+
+def warm_plots() -> bool:
+    """Load the plotting library (while this process waits for its workers)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot  # noqa: F401
+    except Exception:  # noqa: BLE001 - the report says why plots are missing
+        pass
+    return True
+
+
 # ---------------------------------------------------------------------- worker side
 _busy = False
 
@@ -173,8 +199,6 @@ class StagePool:
             for _ in range(self.workers):  # start the workers (their imports) now
                 self.pool.submit(_worker_ready)
             if warm is not None:
-                # load (on a fresh installation: compile and cache) the kernels
-                # here first, so that the workers load them from the cache
                 warm()
 
     def free(self) -> bool:
