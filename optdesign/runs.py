@@ -39,7 +39,7 @@ from typing import Any
 from . import datafile
 from .io import atomic_write_bytes, atomic_write_json, atomic_write_text
 
-__all__ = ["RunFolder", "RunFolderError", "FORMAT_VERSION", "run_key", "package_versions", "rows_csv"]
+__all__ = ["RunFolder", "RunFolderError", "FORMAT_VERSION", "run_key", "package_versions"]
 
 #: version of the run-folder layout; a folder written by another version is refused on resume
 FORMAT_VERSION = 2
@@ -82,18 +82,6 @@ def _sha256(data: bytes) -> str:
 
 def _binding(run_id: str, config_sha: str, seed: int, pareto: bool) -> str:
     return _sha256(json.dumps([run_id, config_sha, int(seed), bool(pareto)]).encode())[:32]
-
-
-def rows_csv(rows: list[dict]) -> str:
-    """Rows (dicts) as CSV text: the union of their keys in order of appearance,
-    floats as ``repr`` (exact), None as an empty field."""
-    if not rows:
-        return ""
-    keys = list(rows[0])
-    for r in rows[1:]:
-        keys.extend(k for k in r if k not in keys)
-    val = lambda v: "" if v is None else repr(v) if isinstance(v, float) else str(v)  # noqa: E731
-    return "\n".join([",".join(keys)] + [",".join(val(r.get(k)) for k in keys) for r in rows]) + "\n"
 
 
 def _read_bytes(path: Path, limit: int) -> bytes:
@@ -408,6 +396,3 @@ class RunFolder:
 
     def write_json(self, rel: str, obj: Any) -> None:
         atomic_write_json(self.path / rel, obj)
-
-    def write_rows(self, rel: str, rows: list[dict]) -> None:
-        atomic_write_text(self.path / rel, rows_csv(rows))

@@ -28,7 +28,7 @@ from .problem import DesignProblem, extra_term, index_term, weighted_sum_term
 from .progress import Progress
 from .results import final_results, finished_stage, stage_summary
 from .stage import run_stage
-from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_kernels, warm_plots
+from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
 
 __all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "build_algorithm",
            "default_jobs", "PipelineResult"]
@@ -158,8 +158,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                     return todo.pop(n)
             return None
 
-        x0 = evaluator.vector(cfg.initial_design())[None, :]
-        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=lambda: warm_kernels(evaluator, x0))
+        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path,
+                         warm=lambda: evaluator(evaluator.vector(cfg.initial_design())[None, :]))
         report_warm = False
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:

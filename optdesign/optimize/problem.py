@@ -105,8 +105,8 @@ class DesignProblem(Problem):
                  constraint_names: Sequence[str] | None = None):
         self.evaluate_designs = evaluate
         self.terms = list(terms)
-        xl = np.asarray(getattr(evaluate, "xl") if xl is None else xl, dtype=float)
-        xu = np.asarray(getattr(evaluate, "xu") if xu is None else xu, dtype=float)
+        xl = np.asarray(evaluate.xl if xl is None else xl, dtype=float)
+        xu = np.asarray(evaluate.xu if xu is None else xu, dtype=float)
         names = getattr(evaluate, "constraint_names", ()) if constraint_names is None else constraint_names
         self.constraint_names = list(names)
         self.n_evaluations = 0

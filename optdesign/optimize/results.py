@@ -11,8 +11,20 @@ from pymoo.indicators.hv import HV
 from ..runs import RunFolder, RunFolderError
 from .problem import weighted_sum, weighted_sum_term
 
-__all__ = ["population_rows", "stage_summary", "check_stage_result", "finished_stage", "final_results",
-           "place_against_front"]
+__all__ = ["rows_csv", "population_rows", "stage_summary", "check_stage_result", "finished_stage",
+           "final_results", "place_against_front"]
+
+
+def rows_csv(rows: list[dict]) -> str:
+    """Rows (dicts) as CSV text: the union of their keys in order of appearance,
+    floats as ``repr`` (exact), None as an empty field."""
+    if not rows:
+        return ""
+    keys = list(rows[0])
+    for r in rows[1:]:
+        keys.extend(k for k in r if k not in keys)
+    val = lambda v: "" if v is None else repr(v) if isinstance(v, float) else str(v)  # noqa: E731
+    return "\n".join([",".join(keys)] + [",".join(val(r.get(k)) for k in keys) for r in rows]) + "\n"
 
 
 def population_rows(evaluator, problem, pop) -> list[dict]:
@@ -37,8 +49,9 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
     """Write a finished stage's history.csv, population.csv (and front CSV)
     and return its result (the caller writes result.json)."""
     folder.stage_dir(stage.name)
-    folder.write_rows(f"stages/{stage.name}/history.csv", history)
-    folder.write_rows(f"stages/{stage.name}/population.csv", population_rows(evaluator, problem, algorithm.pop))
+    folder.write_text(f"stages/{stage.name}/history.csv", rows_csv(history))
+    pop_rows = population_rows(evaluator, problem, algorithm.pop)
+    folder.write_text(f"stages/{stage.name}/population.csv", rows_csv(pop_rows))
     res = {"stage": stage.name, "kind": stage.kind, "generations": len(history),
            "evaluations": int(algorithm.evaluator.n_eval)}
     if stage.kind in ("single", "weighted"):
@@ -56,7 +69,7 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
         opt = algorithm.opt
         opt = opt[opt.get("CV")[:, 0] <= 0]
         rows = population_rows(evaluator, problem, opt)
-        folder.write_rows(f"{stage.name}.csv", rows)
+        folder.write_text(f"{stage.name}.csv", rows_csv(rows))
         res.update({"front_size": len(opt), "front": rows, "terms": [t.label() for t in problem.terms]})
     return res
 

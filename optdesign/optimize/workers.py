@@ -111,7 +111,7 @@ def set_kernel_threads(n: int | None) -> int | None:
     return old
 
 
-def warm_kernels(evaluate: Callable, X) -> None:
+def warm_kernels(evaluate_once: Callable[[], object]) -> None:
     """One evaluation: loads (on a fresh installation: compiles and caches) the
     compiled kernels before the workers start, so that they load them from the
     cache.  Only a warm-up: a failure is left for the stages to report."""
@@ -119,7 +119,7 @@ def warm_kernels(evaluate: Callable, X) -> None:
 
     try:
         with np.errstate(all="ignore"):
-            evaluate(X)
+            evaluate_once()
     except Exception:  # noqa: BLE001
         pass
 
@@ -199,7 +199,7 @@ class StagePool:
             for _ in range(self.workers):  # start the workers (their imports) now
                 self.pool.submit(_worker_ready)
             if warm is not None:
-                warm()
+                warm_kernels(warm)
 
     def free(self) -> bool:
         return self.pool is not None and len(self.running) < self.workers
