@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    args.process_entry = argv is None   # this process is the command (not a caller in-process)
     try:
         rc = args.func(args)
         return 0 if rc is None else int(rc)

@@ -65,7 +65,7 @@ def test_interrupted_runs_resumed_by_rerun(small_batches, tmp_path):
         with pytest.raises(Interrupted):
             run_pipeline(parse_config(t.config_text), folder, t.seed, stop_after=stop)
         assert folder.read_manifest()["status"] == "interrupted"
-        assert any(folder.path.glob("stages/*/checkpoint.pkl"))
+        assert any(folder.path.glob("stages/*/checkpoint.npz"))
     # a process killed outright leaves its manifest at "running": resumed the same way
     killed = RunFolder(out / tasks[1].folder_name)
     killed.update_manifest(status="running")
@@ -96,7 +96,7 @@ def test_unreadable_checkpoint_fails_that_run_with_a_clear_error(tmp_path):
     folder = RunFolder.create(out, t.folder_name, t.config_text, t.seed, t.key, exact=True)
     with pytest.raises(Interrupted):
         run_pipeline(parse_config(t.config_text), folder, t.seed, stop_after=2)
-    (ckpt,) = folder.path.glob("stages/*/checkpoint.pkl")
+    (ckpt,) = folder.path.glob("stages/*/checkpoint.npz")
     ckpt.write_bytes(b"")                        # as a crash before the data reached the disk may leave it
     row = run_task(t, str(out))
     assert row["status"] == "failed" and row["this_batch"] == "resumed"

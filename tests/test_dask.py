@@ -88,7 +88,7 @@ def _running_with_checkpoint(out: Path) -> list[Path]:
             m = json.loads((d / "manifest.json").read_text())
         except (OSError, ValueError):
             continue
-        if m.get("status") == "running" and any(d.glob("stages/*/checkpoint.pkl")):
+        if m.get("status") == "running" and any(d.glob("stages/*/checkpoint.npz")):
             busy.append(d)
     return busy
 

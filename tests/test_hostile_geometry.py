@@ -28,7 +28,7 @@ from hypothesis import given, settings, strategies as st
 
 from optdesign.evaluate import build
 from optdesign.config import load_config, parse_config
-from optdesign.evaluate import evaluate, workspace_of
+from optdesign.evaluate import Evaluator, evaluate, workspace_of
 from optdesign.mechanisms.p4s import E, P4S, Z
 from optdesign.workspace import Workspace
 
@@ -151,7 +151,7 @@ def test_nothing_reachable_is_flagged_and_infeasible():
     check_evaluation(CFG, ev)
     assert np.all(ev.reachable_fraction == 0)
     assert all(np.all(np.isnan(ev.summary[k]["mean"])) for k in CFG.indices)
-    prob = DesignProblem(CFG, [index_term(k, s.sense) for k, s in CFG.indices.items()], _workspace(far))
+    prob = DesignProblem(Evaluator.from_config(CFG, _workspace(far)), [index_term(k, s.sense) for k, s in CFG.indices.items()])
     out = prob.evaluate(np.array([[0.25, 0.67, np.radians(30)]]), return_values_of=["F", "G"])
     F, G = out
     assert np.all(np.isfinite(F)) and np.all(np.isfinite(G))
@@ -189,14 +189,15 @@ def test_problem_flags_designs_at_the_corner_of_the_bounds():
     from optdesign.optimize.problem import DesignProblem, index_term
 
     ws = workspace_of(CFG)
-    prob = DesignProblem(CFG, [index_term(k, s.sense) for k, s in CFG.indices.items()], ws)
+    evaluator = Evaluator.from_config(CFG, ws)
+    prob = DesignProblem(evaluator, [index_term(k, s.sense) for k, s in CFG.indices.items()])
     corners = np.array([[a, b, np.radians(p)] for a in (0.21, 0.29) for b in (0.63, 0.71) for p in (25, 35)])
     hostile = np.array([[0.21, 0.71, 1e-9], [0.29, 0.63, np.pi / 2], [0.06, 0.63, np.radians(30)],
                         [0.21, 5.0, np.radians(30)]])
     Xd = np.vstack([corners, hostile])
     F, G = prob.evaluate(Xd, return_values_of=["F", "G"])
     assert np.all(np.isfinite(F)) and np.all(np.isfinite(G))
-    vals = prob.index_values(Xd)["values"]
+    vals = evaluator(Xd)["values"]
     bad = ~np.all(np.isfinite(np.stack(list(vals.values()), axis=-1)), axis=-1)
     assert np.all(G[bad].max(axis=-1) > 0)
 

@@ -2,7 +2,7 @@
 
 * A run is killed with SIGINT, SIGTERM or SIGKILL at a randomly chosen
   generation (seeded), its folder is checked file by file (every file under
-  its real name is whole: JSON parses, checkpoints unpickle, CSV rows are
+  its real name is whole: JSON parses, checkpoints load as data, CSV rows are
   complete), and it is resumed (killed again once, then finished): the
   results equal those of an uninterrupted run with the same seed.
 * Eight processes that create a run folder of the same name in the same
@@ -93,14 +93,14 @@ def check_folder(folder: Path, config_text: str, allow_tmp: bool) -> int:
             assert len({len(r) for r in rows}) == 1, p
         elif p.suffix == ".png":
             assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", p
-        elif p.name == "checkpoint.pkl":
-            gens += len(rf.load_checkpoint(p.parent.name)["history"])
+        elif p.name == "checkpoint.npz":
+            gens += rf.load_checkpoint(p.parent.name)[0]["history"]["rows"]
     return gens
 
 
 def _checkpoint_writes(out: Path, seen: dict) -> int:
     """Count checkpoint replacements seen so far (each generation writes one)."""
-    for p in out.rglob("checkpoint.pkl"):
+    for p in out.rglob("checkpoint.npz"):
         try:
             ino = p.stat().st_ino
         except FileNotFoundError:
@@ -218,6 +218,83 @@ def test_sigkill_while_the_stage_worker_starts_leaves_no_process(tiny, tmp_path,
     assert not _cmdline(worker), "the stage worker outlived its SIGKILLed parent"
 
 
+def _group(pgid: int) -> list[int]:
+    """The processes of a process group (from /proc)."""
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except (FileNotFoundError, ProcessLookupError, PermissionError):
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[2]) == pgid:
+                out.append(int(d.name))
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=lambda s: s.name)
+def test_a_signal_during_the_run_leaves_no_process_of_its_group(tiny, reference, tmp_path, sig):
+    """The run in its own process group; the signal to the main process
+    (SIGTERM) or to the whole group (SIGINT, as Ctrl-C on a terminal): exit
+    143/130, no process of the group left (stage worker, resource tracker),
+    and the folder resumes to the uninterrupted result."""
+    out = tmp_path / "runs"
+    proc = subprocess.Popen(CLI + ["run", str(tiny), "--seed", str(SEED), "--out", str(out), "--quiet", "--jobs", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        if any("spawn_main" in _cmdline(c) for c in _children(proc.pid)) and list(out.rglob("checkpoint.npz")):
+            break
+        time.sleep(0.002)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, sig)
+    else:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    t0 = time.time()
+    while _group(proc.pid) and time.time() - t0 < 30:
+        time.sleep(0.05)
+    assert not _group(proc.pid), [_cmdline(p) for p in _group(proc.pid)]
+    (folder,) = list(out.iterdir())
+    status = RunFolder(folder).read_manifest()["status"]
+    if proc.returncode == 0:   # finished before the signal landed
+        assert status == "complete"
+    else:
+        assert proc.returncode == EXPECTED_STATUS[sig][0] and status == "interrupted", err
+        assert "Traceback" not in err and err.count("\n") == 1
+    assert _comparable(resume_run(folder).results) == reference
+
+
+@pytest.mark.parametrize("command", ["run", "reproduce"])
+def test_a_signal_after_the_run_completed_gives_its_status(tiny, tmp_path, command):
+    """SIGTERM or SIGINT as soon as the manifest says complete (and a few ms
+    later): exit 0, as the manifest says, and nothing but the summary printed."""
+    alive = 0
+    for trial in range(4 if command == "run" else 2):
+        out = tmp_path / f"runs{trial}"
+        sig = (signal.SIGTERM, signal.SIGINT)[trial % 2]
+        proc = subprocess.Popen(CLI + [command, str(tiny), "--seed", str(SEED), "--out", str(out), "--quiet",
+                                       "--jobs", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.time() + 120
+        while proc.poll() is None and time.time() < deadline:
+            try:
+                (folder,) = list(out.iterdir())
+                if json.loads((folder / "manifest.json").read_text())["status"] == "complete":
+                    break
+            except (ValueError, OSError):
+                pass
+            time.sleep(0.001)
+        time.sleep(float(RNG.uniform(0, 0.02)))
+        alive += proc.poll() is None
+        if proc.poll() is None:
+            proc.send_signal(sig)
+        o, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, (sig, proc.returncode, err)
+        assert err == "" and "complete" in o
+    assert alive >= 1, "every run had exited before its signal: nothing was tested"
+
+
 def test_many_folders_created_at_once(tmp_path):
     """Eight processes create a folder with the same name in the same second."""
     code = ("import sys, time; from optdesign.runs import RunFolder\n"
@@ -261,7 +338,7 @@ def _interrupted_folder(tiny: Path, out: Path) -> Path:
 
 def _open_checkpoint(f: Path) -> Path:
     """The checkpoint of the stage the interruption cut short (the one resume reads)."""
-    (p,) = [p for p in f.rglob("checkpoint.pkl") if not (p.parent / "result.json").exists()]
+    (p,) = [p for p in f.rglob("checkpoint.npz") if not (p.parent / "result.json").exists()]
     return p
 
 

@@ -12,10 +12,10 @@ from pymoo.core.problem import Problem
 from scipy import stats
 
 from optdesign.config import load_config
-from optdesign.evaluate import evaluate, workspace_of
+from optdesign.evaluate import Evaluator, evaluate, workspace_of
 from optdesign.optimize.operators import (AdaptiveGaussianMutation, ArithmeticCrossover, RouletteSelection,
                                           roulette_fitness)
-from optdesign.optimize.pipeline import build_algorithm
+from optdesign.optimize.algorithms import build_algorithm
 from optdesign.optimize.problem import DesignProblem, index_term, normalized_terms
 
 DATA = Path(__file__).parent / "data"
@@ -95,7 +95,7 @@ def test_paper_ga_on_pymoo_reference_problem():
     prob = get_problem("rastrigin", n_var=2)
     cfg = load_config(DATA / "p4s_two_var.yaml")
     cfg.optimizer = dataclasses.replace(cfg.optimizer, population=40, generations=80)
-    alg, cb = build_algorithm(cfg)
+    alg, cb = build_algorithm(cfg.optimizer)
     alg.setup(prob, termination=("n_gen", 80), seed=1, verbose=False, callback=cb)
     while alg.has_next():
         alg.next()
@@ -119,8 +119,8 @@ def test_ga_finds_the_grid_optimum_and_beats_random_search():
     ws = workspace_of(cfg)
     ra0, phi0, f0 = _grid_optimum(cfg)
     assert 0.2 < ra0 < 0.33 and np.radians(55) < phi0 < np.radians(74)  # an interior optimum
-    prob = DesignProblem(cfg, [index_term("dynamic", "min")], ws)
-    alg, cb = build_algorithm(cfg)
+    prob = DesignProblem(Evaluator.from_config(cfg, ws), [index_term("dynamic", "min")])
+    alg, cb = build_algorithm(cfg.optimizer)
     alg.setup(prob, termination=("n_gen", cfg.optimizer.generations), seed=11, verbose=False, callback=cb)
     while alg.has_next():
         alg.next()
@@ -145,7 +145,8 @@ def test_infeasible_designs_are_constraints_and_never_the_optimum():
     far = dataclasses.replace(cfg.workspace, axes={"x": (-0.05, 0.05), "y": (-0.05, 0.05), "z": (0.70, 0.70)})
     cfg = dataclasses.replace(cfg, workspace=far)
     ws = workspace_of(cfg)
-    prob = DesignProblem(cfg, [index_term("dynamic", "min")], ws)
+    evaluator = Evaluator.from_config(cfg, ws)
+    prob = DesignProblem(evaluator, [index_term("dynamic", "min")])
     X = np.array([[0.25, 0.67, np.radians(30)], [0.21, 0.71, np.radians(35)]])
     out = prob.evaluate(X, return_as_dictionary=True)
     reach = out["G"][:, prob.constraint_names.index("reach")]
@@ -157,13 +158,13 @@ def test_infeasible_designs_are_constraints_and_never_the_optimum():
     G = prob.evaluate(Xs, return_as_dictionary=True)["G"]
     feasible = np.all(G <= 0, axis=1)
     assert 0.05 < feasible.mean() < 0.95
-    alg, cb = build_algorithm(cfg)
+    alg, cb = build_algorithm(cfg.optimizer)
     alg.setup(prob, termination=("n_gen", 6), seed=2, verbose=False, callback=cb)
     while alg.has_next():
         alg.next()
     best = alg.opt[0]
     assert best.CV[0] <= 0
-    ev = evaluate(cfg, prob.designs(best.X[None, :]), ws)
+    ev = evaluate(cfg, evaluator.designs(best.X[None, :]), ws)
     assert ev.reachable_fraction[0] == 1.0
 
 
@@ -176,3 +177,26 @@ def test_normalized_terms_flip_maximized_indices():
     assert np.allclose(f["a"], [0, 1]) and np.allclose(f["b"], [0, 1])
     lit = normalized_terms(vals, lo, hi, senses, literal=True)
     assert np.allclose(lit["b"], [1, 0])  # the literal eq. 38 rewards low stiffness
+
+
+def test_the_problem_takes_any_evaluation_callable():
+    """The Problem knows vectors, not mechanisms: around a plain callable (pymoo's
+    own ZDT1 behind it) NSGA-II runs exactly as on pymoo's ZDT1 itself."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.problems import get_problem
+
+    zdt = get_problem("zdt1", n_var=5)
+
+    def evaluate(X):
+        F = zdt.evaluate(X, return_values_of=["F"])
+        return {"values": {"f1": F[:, 0], "f2": F[:, 1]}, "constraints": {}}
+
+    ours = DesignProblem(evaluate, [index_term("f1", "min"), index_term("f2", "min")], xl=zdt.xl, xu=zdt.xu)
+    assert ours.n_var == 5 and ours.n_obj == 2 and ours.n_ieq_constr == 0
+    pops = []
+    for prob in (zdt, ours):
+        alg = NSGA2(pop_size=20)
+        alg.setup(prob, termination=("n_gen", 15), seed=1, verbose=False)
+        alg.run()
+        pops.append(alg.pop.get("F"))
+    assert pops[0].tobytes() == pops[1].tobytes()

@@ -39,7 +39,7 @@ def row_from_folder(path: str | os.PathLike) -> dict:
     status and empty result columns.
     """
     folder = RunFolder(path)
-    m = folder.read_manifest()
+    m = folder.read_manifest(strict=False)
     try:
         text = folder.config_text()
     except RunFolderError:

@@ -1,6 +1,7 @@
 """optdesign run CONFIG | --resume RUN_DIR: run (or finish) an optimization."""
 from __future__ import annotations
 
+import signal
 import sys
 
 COMMAND = "run"
@@ -21,9 +22,13 @@ def register(sub):
 
 
 def execute(args, after=None, cfg=None) -> int:
+    """Run or resume; SIGINT/SIGTERM stop the run at a generation boundary (exit
+    130/143, the folder resumable).  A signal that arrives once the run is
+    complete changes nothing: the exit status is 0, as the manifest says."""
     from ._common import UsageError, open_config
-    from ..optimize.pipeline import Interrupted, Progress
+    from ..optimize.progress import Progress
     from ..optimize.runner import resume_run, start_run, summary_line
+    from ..optimize.workers import Interrupted, StopRequest, default_jobs
     from ..runs import RunFolderError
 
     progress = Progress(False if args.quiet else None)
@@ -33,29 +38,43 @@ def execute(args, after=None, cfg=None) -> int:
         raise UsageError(f"--seed: expected an integer in [0, 2^32), got {args.seed}")
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs: expected a positive integer, got {args.jobs}")
-    from ..optimize.pipeline import default_jobs
-
     jobs = default_jobs() if args.jobs is None else args.jobs
+    stop = StopRequest(deferred=False).install()   # until the run starts, a signal stops at once
+    done = False
     try:
-        if args.resume:
-            res = resume_run(args.resume, progress, jobs=jobs)
-        else:
-            cfg = cfg if cfg is not None else open_config(args.config)
-            res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs)
-    except RunFolderError as exc:
-        raise UsageError(str(exc)) from None
-    except Interrupted as exc:
-        where = getattr(exc, "folder", None) or "<RUN_DIR>"
-        print(f"optdesign: run interrupted; its last checkpoint is saved. "
-              f"Finish it with: optdesign run --resume {where}", file=sys.stderr)
-        return 130 if exc.signum == 2 else 143
-    except RuntimeError as exc:
-        print(f"optdesign: run failed: {exc}", file=sys.stderr)
-        return 1
-    print(summary_line(res))
-    if after is not None:
-        after(res)
-    return 0
+        try:
+            if args.resume:
+                res = resume_run(args.resume, progress, jobs=jobs, stop=stop)
+            else:
+                cfg = cfg if cfg is not None else open_config(args.config)
+                res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs,
+                                stop=stop)
+        except RunFolderError as exc:
+            raise UsageError(str(exc)) from None
+        except Interrupted as exc:
+            where = getattr(exc, "folder", None) or stop.folder
+            if where is None:
+                print("optdesign: interrupted before the run started", file=sys.stderr)
+            else:
+                print(f"optdesign: run interrupted; its last checkpoint is saved. "
+                      f"Finish it with: optdesign run --resume {where}", file=sys.stderr)
+            return 130 if exc.signum == 2 else 143
+        except RuntimeError as exc:
+            print(f"optdesign: run failed: {exc}", file=sys.stderr)
+            return 1
+        stop.completed = done = True
+        print(summary_line(res))
+        if after is not None:
+            after(res)
+        return 0
+    finally:
+        stop.restore()
+        if done and getattr(args, "process_entry", False):
+            # the process that is the command ignores them until it has exited
+            # (Python's own handlers are reset while the interpreter shuts down;
+            # an ignored signal stays ignored), so its status stays the manifest's
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, signal.SIG_IGN)
 
 
 def run(args) -> int:

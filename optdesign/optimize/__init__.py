@@ -1,2 +1,11 @@
-"""Optimization: the pymoo problem, the paper's GA operators, the normalized
-weighted sum (eq. 38-40) and Pareto fronts."""
+"""Optimization: the optimizer knows design vectors and objective values.
+
+``problem`` (the pymoo Problem: bounds, an evaluation callable, objective
+terms; the normalized weighted sum of eq. 38-40), ``operators`` (the paper's
+GA operators), ``algorithms`` (the GA, NSGA-II, NSGA-III a stage runs),
+``stage`` (one stage in pymoo's loop with a Callback for history, progress,
+checkpoints and stop requests), ``checkpoint`` (an algorithm's state as data),
+``workers`` (stop requests, signals, stage worker processes), ``results``
+(stage files, final results, Pareto placement), ``pipeline`` (the plan of
+stages), ``runner`` (start and resume runs), ``report`` (tables and plots).
+"""

@@ -1,8 +1,10 @@
-"""The pymoo Problem over a config's free design variables.
+"""The pymoo Problem: bounds, an evaluation callable and objective terms.
 
-One ``_evaluate`` call evaluates the whole population (designs × workspace
-points) through :func:`optdesign.evaluate.evaluate`.  Objectives are built from
-*objective terms*; constraints (``G <= 0`` feasible) are
+It knows design vectors and objective values, not configs or mechanisms: one
+``_evaluate`` call hands the whole population to the evaluation callable
+(usually an :class:`optdesign.evaluate.Evaluator`, which evaluates designs ×
+workspace points in one pass).  Objectives are built from *objective terms*;
+the Evaluator's constraints (``G <= 0`` feasible) are
 
 * ``reach``: the fraction of workspace points the design cannot reach;
 * ``singularity``: ``max_W cond(J) / threshold - 1`` (the largest local
@@ -13,20 +15,16 @@ points) through :func:`optdesign.evaluate.evaluate`.  Objectives are built from
 * ``stroke_low`` / ``stroke_high``: actuator values outside ``stroke_limits``
   anywhere in W (m), when the config sets them.
 
-Every evaluation's indices and constraint values are kept in ``out`` (as
-pymoo "extra" arrays) so the history records them.
+Every evaluation's values (indices and extra objectives) are kept in ``out``
+(as pymoo "extra" arrays ``index_<name>``) so the history records them.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from pymoo.core.problem import Problem
-
-from ..config import Config
-from ..evaluate import Evaluator
-from ..workspace import Workspace
 
 __all__ = ["Term", "DesignProblem", "index_term", "extra_term", "weighted_sum_term"]
 
@@ -93,32 +91,28 @@ def weighted_sum(values: dict, term: Term) -> np.ndarray:
 
 
 class DesignProblem(Problem):
-    """pymoo Problem: free design variables of a config -> objective terms."""
+    """pymoo Problem: design vectors -> objective terms and constraints.
 
-    CONSTRAINTS = Evaluator.CONSTRAINTS
+    ``evaluate`` maps design vectors X (D, n_var) to ``{"values": {name: (D,)},
+    "constraints": {name: (D,)}}`` (``G <= 0`` feasible): an
+    :class:`optdesign.evaluate.Evaluator`, or any callable.  ``xl``, ``xu`` and
+    ``constraint_names`` default to the callable's attributes of those names.
+    An objective that is not finite becomes a violated ``finite`` constraint
+    (if there is one) and a large finite number, so that pymoo can sort.
+    """
 
-    def __init__(self, config: Config, terms: Sequence[Term], workspace: Workspace):
-        self.config = config
+    def __init__(self, evaluate: Callable[[np.ndarray], dict], terms: Sequence[Term], xl=None, xu=None,
+                 constraint_names: Sequence[str] | None = None):
+        self.evaluate_designs = evaluate
         self.terms = list(terms)
-        self.workspace = workspace
-        self.evaluator = Evaluator.from_config(config, workspace)
-        self.free = self.evaluator.free
-        self.constraint_names = self.evaluator.constraint_names
+        xl = np.asarray(evaluate.xl if xl is None else xl, dtype=float)
+        xu = np.asarray(evaluate.xu if xu is None else xu, dtype=float)
+        names = getattr(evaluate, "constraint_names", ()) if constraint_names is None else constraint_names
+        self.constraint_names = list(names)
         self.n_evaluations = 0
-        super().__init__(n_var=len(self.free), n_obj=len(self.terms), n_ieq_constr=len(self.constraint_names),
-                         xl=self.evaluator.xl, xu=self.evaluator.xu, vtype=float)
+        super().__init__(n_var=len(xl), n_obj=len(self.terms), n_ieq_constr=len(self.constraint_names),
+                         xl=xl, xu=xu, vtype=float)
 
-    # ------------------------------------------------------------------ helpers
-    def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
-        """Design vectors (D, n_var) -> parameter arrays (D,), SI, fixed ones filled in."""
-        return self.evaluator.designs(X)
-
-    def vector(self, design: dict) -> np.ndarray:
-        return self.evaluator.vector(design)
-
-    def index_values(self, X: np.ndarray) -> dict[str, np.ndarray]:
-        """Global index means, constraint values and reachable fraction of designs X."""
-        return self.evaluator(X)
     def objectives(self, values: dict) -> np.ndarray:
         cols = []
         for t in self.terms:
@@ -130,14 +124,19 @@ class DesignProblem(Problem):
 
     # ------------------------------------------------------------------ pymoo
     def _evaluate(self, X, out, *args, **kwargs):
-        res = self.index_values(X)
+        res = self.evaluate_designs(X)
         F = self.objectives(res["values"])
-        G = np.stack([res["constraints"][k] for k in self.constraint_names], axis=-1)
+        if self.constraint_names:
+            G = np.stack([np.asarray(res["constraints"][k], dtype=float) for k in self.constraint_names], axis=-1)
+        else:
+            G = np.zeros((X.shape[0], 0))
         bad = ~np.all(np.isfinite(F), axis=-1)
         # an objective that is not finite is recorded as infeasible (constraint
         # 'finite'); pymoo needs finite numbers to sort, so such rows get a large
         # finite objective that never competes with a feasible design
-        G[bad, self.constraint_names.index("finite")] = np.maximum(G[bad, self.constraint_names.index("finite")], 1.0)
+        if "finite" in self.constraint_names:
+            j = self.constraint_names.index("finite")
+            G[bad, j] = np.maximum(G[bad, j], 1.0)
         F = np.where(np.isfinite(F), F, 1e300)
         self.n_evaluations += X.shape[0]
         out["F"] = F

@@ -6,7 +6,9 @@ from pathlib import Path
 
 from ..config import Config, parse_config
 from ..runs import RunFolder, RunFolderError, run_key
-from .pipeline import PipelineResult, Progress, run_pipeline
+from .pipeline import PipelineResult, run_pipeline
+from .progress import Progress
+from .workers import StopRequest
 
 __all__ = ["start_run", "resume_run", "summary_line", "config_text"]
 
@@ -23,33 +25,38 @@ def config_text(cfg: Config) -> str:
 
 def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "runs", name: str | None = None,
               progress: Progress | None = None, pareto: bool = True, exact_name: bool = False,
-              stop_after: int | None = None, jobs: int = 1) -> PipelineResult:
+              stop_after: int | None = None, jobs: int = 1, stop: StopRequest | None = None) -> PipelineResult:
     """Run a config's optimization in a new run folder under ``out`` (``jobs``:
     processes running its stages at once, see :func:`run_pipeline`)."""
     seed = cfg.optimizer.seed if seed is None else int(seed)
     text = config_text(cfg)
     key = run_key(text, seed, {"pareto": pareto})
-    folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name)
-    folder.update_manifest(pareto=pareto, config_source=cfg.source, config_name=cfg.name)
-    return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs)
+    folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name, pareto=pareto)
+    if stop is not None:
+        stop.folder = folder.path
+    folder.update_manifest(config_source=cfg.source, config_name=cfg.name)
+    return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs, stop=stop)
 
 
 def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_after: int | None = None,
-               jobs: int = 1) -> PipelineResult:
-    """Finish an interrupted run in its own folder (completed stages are kept)."""
+               jobs: int = 1, stop: StopRequest | None = None) -> PipelineResult:
+    """Finish an interrupted run in its own folder (completed stages are kept,
+    once the folder is checked against its manifest)."""
     folder = RunFolder(path)
     m = folder.read_manifest()
-    text = folder.config_text()
-    cfg = parse_config(text, source=str(folder.path / "config.yaml"))
+    if stop is not None:
+        stop.folder = folder.path
+    if m["status"] == "complete" and (folder.path / "results.json").exists():
+        folder.verify_inputs(write=False)
+        res = folder.results()
+        if not all(k in res for k in ("status", "seed", "objective", "optimum", "global_indices")):
+            raise RunFolderError(f"{folder.path / 'results.json'}: not the results of a run")
+        return PipelineResult(folder, res)
+    folder.verify_inputs(write=False)   # before the config is parsed: it must be the one run
+    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"))
     cfg.name = m.get("config_name") or m.get("name") or cfg.name
-    if m.get("status") == "complete" and (folder.path / "results.json").exists():
-        import json
-
-        return PipelineResult(folder, json.loads((folder.path / "results.json").read_text()))
-    if "seed" not in m or not isinstance(m["seed"], int):
-        raise RunFolderError(f"{folder.manifest_path}: corrupted (no integer 'seed')")
-    return run_pipeline(cfg, folder, m["seed"], progress, pareto=bool(m.get("pareto", True)), stop_after=stop_after,
-                        jobs=jobs)
+    return run_pipeline(cfg, folder, m["seed"], progress, pareto=m["pareto"], stop_after=stop_after,
+                        jobs=jobs, stop=stop)
 
 
 def summary_line(res: PipelineResult) -> str:
