@@ -15,7 +15,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "optdesign"
 
 #: the modules every layer may use: plain helpers that import no other part of the package
-BOTTOM = {"optdesign.linalg", "optdesign.io", "optdesign.fast", "optdesign.fast._jit", "optdesign.tables",
+BOTTOM = {"optdesign.linalg", "optdesign.io", "optdesign.datafile", "optdesign.fast", "optdesign.fast._jit", "optdesign.tables",
           "optdesign.symbolic", "optdesign.screws"}
 
 
@@ -150,3 +150,11 @@ def test_a_mechanisms_own_code_is_not_named_outside_it():
             if home is not None and not _under(name, home) and not name.startswith(home + "_"):
                 bad.append(f"{name} imports {imp}")
     assert not bad, bad
+def test_modules_fit_in_one_sitting():
+    """No module above ~400 lines except compiled kernels."""
+    long = []
+    for name, path in MODULES:
+        n = len(path.read_text().splitlines())
+        if n > 420 and not name.endswith("kernels"):
+            long.append((name, n))
+    assert not long, long

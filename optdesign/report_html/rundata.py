@@ -116,7 +116,7 @@ def _front(name: str, head: list[str], data: np.ndarray, cfg: Config, terms: lis
 def load_run(path) -> RunData:
     """Read a finished run folder; RunFolderError (one line) if it is not one."""
     folder = RunFolder(Path(path))
-    m = folder.read_manifest()
+    m = folder.read_manifest(strict=False)   # read only: the previous format too
     if m.get("status") != "complete":
         raise RunFolderError(f"{folder.path}: not a finished run (status: {m.get('status', 'unknown')})")
     root = folder.path.resolve()
