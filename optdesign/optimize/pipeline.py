@@ -190,6 +190,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         write_report(cfg, folder, results, stages)
         stop.completed = True   # from here a signal changes nothing: the manifest is about to say complete
         folder.complete(wall_time_s=wall, evaluations=evals)
+        _html_report(folder)
         return PipelineResult(folder, results, stages)
     except KeyboardInterrupt as exc:
         if not isinstance(exc, Interrupted):
@@ -213,3 +214,13 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             pool.close()
         if own:
             stop.restore()
+
+
+def _html_report(folder) -> None:
+    """report.html of the finished run; a failure is written down, never loses the run."""
+    try:
+        from ..report_html import write_report_html
+
+        write_report_html(folder.path)
+    except Exception as exc:  # noqa: BLE001
+        folder.write_text("report-error.txt", f"{type(exc).__name__}: {exc}\n")
