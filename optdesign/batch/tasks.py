@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Sequence
 
 from ..config import load_config, parse_config
@@ -65,10 +64,12 @@ def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequenc
             par = bf.pareto if pareto is None else pareto
             for name, text, sweep in bf.combinations:
                 cfg = parse_config(text, source=str(path))
+                cfg.check_optimizable(pareto=par)
                 add(name, text, str(path), _seeds(cfg, n_seeds, seeds, bf.seeds), par, sweep)
         else:
             cfg = load_config(path)
-            add(cfg.name, Path(path).read_text(), str(path), _seeds(cfg, n_seeds, seeds, None), bool(pareto), {})
+            cfg.check_optimizable(pareto=bool(pareto))
+            add(cfg.name, cfg.text, str(path), _seeds(cfg, n_seeds, seeds, None), bool(pareto), {})
     return tasks
 
 

@@ -21,7 +21,7 @@ def register(sub):
 
 
 def execute(args, after=None, cfg=None) -> int:
-    from ._common import UsageError, open_config
+    from ._common import UsageError, check_name_option, check_out_root, make_out_root, open_config
     from ..optimize.pipeline import Interrupted, Progress
     from ..optimize.runner import resume_run, start_run, summary_line
     from ..runs import RunFolderError
@@ -36,11 +36,18 @@ def execute(args, after=None, cfg=None) -> int:
     from ..optimize.pipeline import default_jobs
 
     jobs = default_jobs() if args.jobs is None else args.jobs
+    if not args.resume:
+        # everything that can be checked is checked before the run folder is made:
+        # a rejected run leaves nothing on disk
+        check_name_option(args.name, "--name")
+        check_out_root(args.out)
+        cfg = cfg if cfg is not None else open_config(args.config)
+        cfg.check_optimizable(pareto=not args.no_pareto)
+        make_out_root(args.out)
     try:
         if args.resume:
             res = resume_run(args.resume, progress, jobs=jobs)
         else:
-            cfg = cfg if cfg is not None else open_config(args.config)
             res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs)
     except RunFolderError as exc:
         raise UsageError(str(exc)) from None

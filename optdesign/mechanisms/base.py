@@ -87,6 +87,9 @@ class Mechanism:
     supported_indices: ClassVar[tuple[str, ...]] = ()
     #: which pose axes are angles (for unit display)
     angular_axes: ClassVar[tuple[str, ...]] = ()
+    #: pose axes that are plain numbers (no unit: e.g. the sine of an angle); the others are
+    #: lengths unless listed in ``angular_axes``
+    dimensionless_axes: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -128,6 +131,14 @@ class Mechanism:
             setattr(self, k, v)
 
     # ------------------------------------------------------------------ config hooks
+    @classmethod
+    def pose_kind(cls, axis: str) -> str:
+        """``angle``, ``number`` or ``length``: the kind of a pose axis (it decides
+        the units a workspace may give it)."""
+        if axis in cls.angular_axes:
+            return "angle"
+        return "number" if axis in cls.dimensionless_axes else "length"
+
     @classmethod
     def check_design(cls, design: Mapping[str, float]) -> tuple[str, str] | None:
         """Return (key, message) if a design is geometrically impossible, else None."""

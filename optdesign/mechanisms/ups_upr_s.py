@@ -82,6 +82,7 @@ class UpsUprS(Mechanism):
         ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPR leg")))
     supported_indices = ("isotropy", "dexterity", "manipulability")
     angular_axes = ()
+    dimensionless_axes = ("s_theta", "s_psi")     # sines of the angles
 
     # ------------------------------------------------------------------ geometry
     def legs(self, X: np.ndarray) -> dict[str, np.ndarray]:
