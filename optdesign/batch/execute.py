@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..config import ConfigError, parse_config
+from ..names import OutsideRoot, check_inside
 from ..runs import RunFolder, RunFolderError
 from .schema import sweep_label
 from .summary import row_from_folder
@@ -49,7 +50,7 @@ class BatchInterrupted(KeyboardInterrupt):
 def stop_on_signals():
     """SIGINT and SIGTERM raise :class:`BatchInterrupted` in the main thread
     (once: a second signal while the workers are being stopped is ignored, so
-    the stopping is never cut short).  :func:`run_batch` then stops its
+    the stopping is never cut short); outside the main thread it does nothing.  :func:`run_batch` then stops its
     workers before the exception leaves it."""
     fired = []
 
@@ -59,6 +60,11 @@ def stop_on_signals():
         fired.append(signum)
         raise BatchInterrupted(signum)
 
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():   # signals reach the main thread only
+        yield
+        return
     old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
@@ -92,6 +98,10 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
     folder = RunFolder(Path(out) / task.folder_name)
     state = "new"
     try:
+        try:      # a symbolic link in the batch folder never takes a run elsewhere
+            check_inside(out, folder.path)
+        except OutsideRoot as exc:
+            raise RunFolderError(str(exc)) from None
         cfg = parse_config(task.config_text, source=task.source)
         if folder.path.exists():
             m = folder.read_manifest()
@@ -148,10 +158,11 @@ def _probe_scheduler(scheduler: str, timeout: float, security) -> None:
     try:
         answer = asyncio.run(asyncio.wait_for(ask(), timeout))
     except (TimeoutError, asyncio.TimeoutError, OSError):
-        raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s "
-                           "(no answer from a scheduler there)") from None
+        raise BackendError(f"cannot reach the Dask scheduler at {scheduler}: no scheduler answered "
+                           f"within {timeout:g} s") from None
     except Exception as exc:  # noqa: BLE001 - garbage on the port: MemoryError (a huge frame length), ValueError, ...
-        raise BackendError(f"{scheduler} does not answer as a Dask scheduler ({type(exc).__name__})") from None
+        raise BackendError(f"{scheduler} does not answer as a Dask scheduler (reading its answer gave "
+                           f"{type(exc).__name__})") from None
     if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
         raise BackendError(f"{scheduler} does not answer as a Dask scheduler (it answered {type(answer).__name__})")
 

@@ -1,6 +1,8 @@
 """Helpers shared by the subcommands."""
 from __future__ import annotations
 
+import os
+import stat
 from typing import Sequence
 
 from ..config import Config, load_config
@@ -36,11 +38,14 @@ def check_out_root(path: str, option: str = "--out") -> None:
         raise UsageError(f"{option}: expected a folder, got {shorten(path)}")
     for q in (p, *p.parents):
         try:
-            if q.exists() and not q.is_dir():
-                what = "is not a folder" if q == p else f"lies under {plain(str(q))}, which is not a folder"
-                raise UsageError(f"{option}: {plain(path)} {what}")
-        except OSError as exc:      # a name too long, a symbolic-link loop
+            st = os.stat(q)          # follows links; a link loop or too long a name raises
+        except (FileNotFoundError, NotADirectoryError):
+            continue
+        except OSError as exc:
             raise UsageError(f"{option}: cannot use {plain(path)} ({exc.strerror or type(exc).__name__})") from None
+        if not stat.S_ISDIR(st.st_mode):
+            what = "is not a folder" if q == p else f"lies under {plain(str(q))}, which is not a folder"
+            raise UsageError(f"{option}: {plain(path)} {what}")
 
 
 def make_out_root(path: str, option: str = "--out") -> None:

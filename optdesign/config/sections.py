@@ -4,7 +4,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..workspace import MAX_POINTS, WorkspaceSpec, point_count
-from .reader import UNITS, Reader, show, tname
+from .reader import UNITS, Reader, join, show, suggest, tname
 from .schema import OptimizerSpec
 
 __all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
@@ -133,7 +133,7 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         wm = r.mapping(opt["weights"], f"{path}.weights")
         for k, v in wm.items():
             if k not in indices:
-                r.fail(f"{path}.weights.{k}", f"unknown index; expected one of {', '.join(indices)}")
+                r.fail(join(f"{path}.weights", k), f"unknown index{suggest(k, indices)}; expected one of {', '.join(indices)}")
             weights[k] = r.number(v, f"{path}.weights.{k}", nonneg=True)
         if sum(weights.values()) <= 0:
             r.fail(f"{path}.weights", "expected at least one positive weight")
