@@ -87,7 +87,7 @@ def _axis_count(lo: float, hi: float, step: float | None, count: int | None) -> 
     if hi == lo:
         return 1
     if step is not None:
-        ratio = (hi - lo) / step + 1e-9
+        ratio = (hi - lo) / step + 1e-9 if step > 0 else math.inf
         return int(math.floor(ratio)) + 1 if ratio < 1e18 else 10 ** 18
     return int(count)
 

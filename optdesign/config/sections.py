@@ -85,6 +85,8 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             r.fail(f"{path}.points_per_axis", "give 'step' or 'points_per_axis', not both")
         if "step" in ws:
             step = r.number(ws["step"], f"{path}.step", positive=True) * scale
+            if step <= 0:          # a subnormal step that the unit's factor took to zero
+                r.fail(f"{path}.step", f"step {show(ws['step'])} is too small to be a grid step")
         elif "points_per_axis" in ws:
             ppa = r.integer(ws["points_per_axis"], f"{path}.points_per_axis", minimum=1, maximum=MAX_POINTS)
         else:
