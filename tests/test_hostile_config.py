@@ -254,7 +254,7 @@ WHOLE_FILES = {
 def test_whole_file_cases(tmp_path, label):
     data, expect = WHOLE_FILES[label]
     (tmp_path / "c.yaml").write_bytes(data)
-    # deep nesting takes PyYAML about a second to refuse: two commands suffice there
+    # deep nesting is refused at 64 levels; two commands suffice there
     commands = WHOLE_FILE_COMMANDS if label != "deep flow nesting" else (["validate-config"], ["run", "--quiet"])
     for command in commands:
         rc, _, err = run_cli_in(tmp_path, command + ["c.yaml"])

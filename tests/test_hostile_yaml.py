@@ -111,7 +111,7 @@ def test_duplicate_keys_are_refused_at_every_level():
             assert re.search(rf"(^|[.: ]){re.escape(key)}: duplicate key", err), err
 
     check()
-    assert cases.n >= 100
+    assert cases.n >= 120
 
 
 def test_duplicate_mechanism_is_refused():
