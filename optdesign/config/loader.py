@@ -19,7 +19,7 @@ from typing import Any, Mapping
 
 from ..names import name_problem, safe_default_name
 from . import yamlsafe
-from .reader import UNITS, ConfigError, Reader, join, show, suggest, tname
+from .reader import UNITS, ConfigError, Reader, join, show, suggest
 from .schema import Config, DesignVariable, IndexSpec
 from .sections import optimizer_section, workspace_section
 

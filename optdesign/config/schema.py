@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 from ..workspace import WorkspaceSpec
 from .reader import UNITS, ConfigError
