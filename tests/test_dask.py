@@ -217,7 +217,7 @@ def test_a_listener_that_is_not_a_scheduler(tmp_path, mode):
 def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
     """SIGTERM to a batch running on Dask: exit 143, one line, the client closed
     and no process left in the batch's group."""
-    address, _ = cluster
+    address, procs = cluster
     cfg = edited_copy(BATCH_SMALL, {"generations: 5": "generations: 60"}, "slow.yaml")
     out = tmp_path / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--out", str(out),
@@ -247,3 +247,6 @@ def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
             break
         assert time.monotonic() - t0 < 20, "a process of the batch's group is left"
         time.sleep(0.1)
+    for name, p in procs.items():      # the workers would finish the run they hold: no need to wait
+        if name.startswith("worker"):
+            p.kill()

@@ -213,3 +213,19 @@ def test_limits_through_the_commands(label, command):
         run_case(work, outside, command + ["c.yaml"], label, file="c.yaml", key=f"{key}: ", allowed=(2,))
         assert time.perf_counter() - t0 < 5
         assert files_under(work) == {"c.yaml"}
+
+
+@pytest.mark.parametrize("body, argv, key", [
+    ("seeds: 100000\nsweep: {parameters.m_platform: [4.0, 5.0]}\n", [], "b.yaml: seeds: "),
+    ("sweep: {parameters.m_platform: [4.0, 5.0]}\n", ["--seeds", "60000"], "b.yaml: seeds: "),
+    ("sweep: {parameters.m_platform: " + str(list(range(1, 102))) + ", parameters.g: " + str(list(range(1, 101)))
+     + "}\n", [], "b.yaml: sweep: grid gives 10100 combinations"),
+], ids=["file seeds", "--seeds", "combinations"])
+def test_batch_sizes_are_bounded(body, argv, key):
+    """At most 100,000 runs (and 10,000 sweep combinations) per batch, refused before any task is made."""
+    with sandbox() as (work, outside):
+        (work / "b.yaml").write_text(f"base: {DATA / 'batch_small.yaml'}\n" + body)
+        t0 = time.perf_counter()
+        run_case(work, outside, ["batch", "b.yaml", "--dry-run"] + argv, key, key=key, allowed=(2,))
+        assert time.perf_counter() - t0 < 30
+        assert files_under(work) == {"b.yaml"}

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import ConfigError, load_config, parse_config, yamlsafe
-from ..config.reader import shorten, suggest
+from ..config.reader import plain, shorten, suggest
 from ..names import name_problem
 
 __all__ = ["BatchFile", "is_batch_file", "load_batch_file", "sweep_label"]
@@ -143,8 +143,8 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
     if not isinstance(base, str) or not base:
         _fail(source, "base", "expected the path of a config file")
     base_path = Path(base) if Path(base).is_absolute() else p.parent / base
-    if not base_path.is_file():
-        _fail(source, "base", f"config file not found: {base_path}")
+    if not base_path.exists() and not base_path.is_symlink():
+        _fail(source, "base", f"config file not found: {plain(str(base_path))}")
     base_cfg = load_config(base_path)        # a mistake in the base names the base file
     base_src = str(base_path)
     base_data = yamlsafe.load(base_cfg.text, base_src)   # the text just read and validated

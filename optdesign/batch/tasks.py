@@ -9,11 +9,14 @@ import hashlib
 from dataclasses import dataclass, field
 from typing import Sequence
 
-from ..config import load_config, parse_config
+from ..config import ConfigError, load_config, parse_config
 from ..runs import run_key
 from .schema import is_batch_file, load_batch_file
 
-__all__ = ["Task", "config_key", "plan"]
+__all__ = ["Task", "config_key", "plan", "MAX_RUNS"]
+
+#: the most runs one batch may plan (configs x sweep combinations x seeds)
+MAX_RUNS = 100_000
 
 
 @dataclass(frozen=True)
@@ -52,6 +55,9 @@ def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequenc
     seen: set[str] = set()
 
     def add(name, text, source, seed_list, par, sweep):
+        if len(tasks) + len(seed_list) > MAX_RUNS:      # before the tasks are made
+            raise ConfigError(source, "seeds", f"the batch would hold more than {MAX_RUNS:,} runs (configs x seeds); "
+                                               "split it")
         for s in seed_list:
             t = Task(name, text, source, int(s), run_key(text, int(s), {"pareto": par}), par, sweep)
             if t.folder_name not in seen:
