@@ -31,7 +31,8 @@ from .schema import sweep_label
 from .summary import row_from_folder
 from .tasks import Task, config_key
 
-__all__ = ["BackendError", "BatchInterrupted", "stop_on_signals", "run_task", "run_batch", "connect_dask"]
+__all__ = ["BackendError", "BatchInterrupted", "stop_on_signals", "run_task", "run_batch", "connect_dask",
+           "check_shared_folder"]
 
 
 class BackendError(RuntimeError):
@@ -232,7 +233,7 @@ def connect_dask(scheduler: str, timeout: float = 10.0, check_version: bool = Tr
     return client
 
 
-def _check_shared_folder(client, out_abs: str) -> None:
+def check_shared_folder(client, out_abs: str) -> None:
     """Every Dask worker must see the run folders' parent (a shared file system)."""
     marker = Path(out_abs) / f".optdesign-batch-{os.getpid()}-{os.urandom(4).hex()}"
     marker.write_text("")
@@ -244,6 +245,9 @@ def _check_shared_folder(client, out_abs: str) -> None:
     if blind:
         raise BackendError(f"Dask worker {blind[0]} does not see {out_abs}; with --backend dask, --out must be "
                            "a folder on a file system shared by this machine and every worker")
+
+
+_check_shared_folder = check_shared_folder   # the name the tests have used
 
 
 def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, backend: str = "local",
@@ -303,7 +307,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
             client = connect_dask(scheduler, timeout)
         try:
             Path(out_abs).mkdir(parents=True, exist_ok=True)
-            _check_shared_folder(client, out_abs)
+            check_shared_folder(client, out_abs)
             # every run at once: Dask balances them over the worker threads (joblib's Dask
             # backend always uses all of them, whatever n_jobs says)
             with parallel_config(backend="dask", client=client, retries=retries, n_jobs=-1,

@@ -113,6 +113,15 @@ def _run(args) -> int:
             except BackendError as exc:
                 raise UsageError(str(exc)) from None
         make_out_root(args.out)
+        if client is not None:
+            from pathlib import Path
+
+            from ..batch.execute import check_shared_folder
+
+            try:
+                check_shared_folder(client, str(Path(args.out).resolve()))
+            except BackendError as exc:
+                raise UsageError(str(exc)) from None
         where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
         print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
 
