@@ -373,10 +373,14 @@ def _consume(parser) -> Any:
 
 
 # ---------------------------------------------------------------------- writing
-class _Resolver(yaml.resolver.Resolver):
+class _Dumper(yaml.SafeDumper):
     """For the dumper's quoting decisions: YAML 1.1's implicit types (PyYAML's
     resolver) and those of :func:`load`'s schema, so that a string either
-    would read as something else (``yes``, ``1:30``, ``1e3``, ``012``) is quoted."""
+    would read as something else (``yes``, ``1:30``, ``1e3``, ``012``) is
+    quoted; never an alias."""
+
+    def ignore_aliases(self, data):
+        return True
 
 
 for _tag, _rx, _first in (
@@ -384,26 +388,8 @@ for _tag, _rx, _first in (
         ("int", r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$", "-+0123456789"),
         ("float", r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$",
          "-+0123456789."),
-        ("null", r"^(?:~|null|Null|NULL|)$", ["~", "n", "N", ""]),
-        ("merge", r"^(?:<<)$", "<")):
-    _Resolver.add_implicit_resolver(_TAG + _tag, re.compile(_rx), list(_first))
-
-
-class _Dumper(yaml.emitter.Emitter, yaml.serializer.Serializer, yaml.representer.SafeRepresenter, _Resolver):
-    def __init__(self, stream, **kw):
-        yaml.emitter.Emitter.__init__(self, stream, canonical=kw.get("canonical"), indent=kw.get("indent"),
-                                      width=kw.get("width"), allow_unicode=kw.get("allow_unicode"),
-                                      line_break=kw.get("line_break"))
-        yaml.serializer.Serializer.__init__(self, encoding=kw.get("encoding"), explicit_start=kw.get("explicit_start"),
-                                            explicit_end=kw.get("explicit_end"), version=kw.get("version"),
-                                            tags=kw.get("tags"))
-        yaml.representer.SafeRepresenter.__init__(self, default_style=kw.get("default_style"),
-                                                  default_flow_style=kw.get("default_flow_style"),
-                                                  sort_keys=kw.get("sort_keys", True))
-        _Resolver.__init__(self)
-
-    def ignore_aliases(self, data):
-        return True
+        ("null", r"^(?:~|null|Null|NULL|)$", ["~", "n", "N", ""])):
+    _Dumper.add_implicit_resolver(_TAG + _tag, re.compile(_rx), list(_first))
 
 
 def dump(data: Any, **kw) -> str:
