@@ -116,10 +116,23 @@ def _error(message: str) -> int:
     return 2
 
 
+def _tolerant_output() -> None:
+    """Names from the command line may hold bytes that are not UTF-8 (Python
+    keeps them as lone surrogates): printed back, they are escaped instead of
+    ending the command with UnicodeEncodeError."""
+    for stream in (sys.stdout, sys.stderr):
+        if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):  # pragma: no cover - a stream that cannot change
+                pass
+
+
 def main(argv: list[str] | None = None) -> int:
     from .names import OutsideRoot
     from .workspace import WorkspaceTooLarge
 
+    _tolerant_output()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

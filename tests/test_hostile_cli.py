@@ -138,3 +138,26 @@ def test_did_you_mean_in_configs(old, new, words, edited_copy):
         (work / "c.yaml").write_text(edited_text((DATA / "p4s_small.yaml").read_text(), {old: new}))
         _, _, err = run_case(work, outside, ["validate-config", "c.yaml"], new, file="c.yaml", allowed=(2,))
         assert words in err, err
+
+
+def test_names_that_are_not_utf8_on_a_strict_terminal(tmp_path):
+    """A file name with a byte that is not UTF-8 (a lone surrogate in Python),
+    printed back to a terminal whose encoding is strict: escaped, no traceback."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    name, bad_name = os.fsdecode(b"\xff.yaml"), os.fsdecode(b"x\xff")
+    shutil.copy(SMALL, tmp_path / name)
+    env = {**os.environ, "PYTHONIOENCODING": "utf-8:strict", "PYTHONPATH": str(ROOT)}
+    for argv, status in ((["validate-config", name], 0), (["validate-config", os.fsdecode(b"\xfe.yaml")], 2),
+                         (["run", name, f"--name={bad_name}"], 2)):
+        r = subprocess.run([sys.executable, "-m", "optdesign.cli", *argv], cwd=tmp_path, env=env,
+                           capture_output=True, timeout=120)
+        assert r.returncode == status, r.stderr
+        assert b"Traceback" not in r.stderr and b"\\udc" in (r.stdout + r.stderr)
+        if status == 2:
+            assert r.stderr.count(b"\n") == 1
