@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import Config
+from .config import Config, ConfigError
 from .evaluate import evaluate, mechanism_class
 from .io import atomic_write_text
-from .workspace import WorkspaceSpec, sample
+from .names import check_inside
+from .workspace import MAX_POINTS, WorkspaceSpec, point_count, sample
 
 __all__ = ["atlas_plane", "write_atlas"]
 
@@ -36,16 +37,27 @@ def atlas_plane(cfg: Config, resolution: int | None = None, fixed: dict[str, flo
     spec = WorkspaceSpec(type="box", axes=axes, sampling="grid",
                          step=ws.step if n is None else None,
                          points_per_axis=n if n is not None else ws.points_per_axis)
+    count = point_count(spec, names)
+    if count > MAX_POINTS:      # before anything is allocated
+        raise ConfigError(cfg.source, "workspace" if resolution is None else "--resolution",
+                          f"the atlas plane would have {count:,} points; expected at most {MAX_POINTS:,}")
     return sample(spec, names)
 
 
 def write_atlas(cfg: Config, design: str, out_dir: str | os.PathLike, resolution: int | None = None,
-                fixed: dict[str, float] | None = None, plots: bool = True) -> Path:
-    """Write ``<out_dir>/local_indices.csv`` and one contour PNG per index."""
+                fixed: dict[str, float] | None = None, plots: bool = True,
+                root: str | os.PathLike | None = None) -> Path:
+    """Write ``<out_dir>/local_indices.csv`` and one contour PNG per index.
+    With ``root``, ``out_dir`` must lie inside it (symbolic links resolved);
+    nothing is written before the atlas is computed."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     ws = atlas_plane(cfg, resolution, fixed)
     ev = evaluate(cfg, [cfg.design(design)], ws, keep_local=True)
+    if root is not None:
+        check_inside(root, out)
+        for k in cfg.indices:
+            check_inside(out, out / f"{k}.png")
+    out.mkdir(parents=True, exist_ok=True)
     names = ws.names
     lines = [",".join(list(names) + ["reachable"] + list(cfg.indices))]
     for j in range(ws.n):

@@ -22,13 +22,77 @@ _ORDER = ["reproduce", "run", "init", "evaluate", "atlas", "ik", "fk", "batch", 
           "bench", "validate-config", "validate-dynamics"]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the package's one-line errors: ``optdesign: error: <what>
+    (see 'optdesign COMMAND --help')``, exit status 2, and a "did you mean"
+    for a mistyped command, choice or option."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        self._argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def error(self, message):
+        message = self._suggest(message)
+        where = self.prog.split(" ", 1)[1] + ": " if " " in self.prog else ""
+        cmd = self.prog if " " in self.prog else " ".join(["optdesign"] + self._command()[:1])
+        line = _one_line(f"{where}{message} (see '{cmd} --help')")
+        print(f"optdesign: error: {line}", file=sys.stderr)
+        raise SystemExit(2)
+
+    def _suggest(self, message: str) -> str:
+        import ast
+        import difflib
+        import re
+
+        from .config.reader import shorten
+
+        m = re.match(r"^(argument .*?: )?invalid choice: (?P<value>.*?) \(choose from (?P<choices>.*)\)$", message)
+        if m:
+            try:
+                value = ast.literal_eval(m.group("value"))
+                choices = [str(c) for c in ast.literal_eval("[" + m.group("choices") + "]")]
+            except (ValueError, SyntaxError):
+                return message
+            close = difflib.get_close_matches(str(value), choices, n=1, cutoff=0.5)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            return f"{m.group(1) or ''}invalid choice {shorten(value)}{hint}; expected one of {', '.join(choices)}"
+        m = re.match(r"^unrecognized arguments: (?P<rest>.*)$", message)
+        if m:
+            first = m.group("rest").split(" ")[0]
+            options = self._options_of_command()
+            close = difflib.get_close_matches(first.split("=")[0], options, n=1, cutoff=0.6) if first.startswith("-") else []
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            return f"unrecognized arguments: {shorten(m.group('rest'))[1:-1]}{hint}"
+        return message
+
+    def _command(self) -> list:
+        """[name, parser] of the subcommand named in the arguments, or []."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001 - argparse has no public accessor
+                for tok in getattr(self, "_argv", []):
+                    if isinstance(tok, str) and tok in action.choices:
+                        return [tok, action.choices[tok]]
+        return []
+
+    def _options_of_command(self) -> list[str]:
+        """The option strings of the subcommand named in the arguments (or of this parser)."""
+        found = self._command()
+        return list((found[1] if found else self)._option_string_actions)  # noqa: SLF001
+
+
+def _one_line(text: str, limit: int = 400) -> str:
+    """``text`` as one printable line of at most about ``limit`` characters."""
+    out = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return out if len(out) <= limit else out[:limit] + "..."
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="optdesign",
         description="Dimensional optimization of parallel mechanisms.",
     )
     parser.add_argument("--version", action="version", version=f"optdesign {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     from . import commands
 
     mods = []
@@ -48,16 +112,34 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _error(message: str) -> int:
-    print(f"optdesign: error: {message}", file=sys.stderr)
+    print(f"optdesign: error: {_one_line(message, 2000)}", file=sys.stderr)
     return 2
 
 
+def _tolerant_output() -> None:
+    """Names from the command line may hold bytes that are not UTF-8 (Python
+    keeps them as lone surrogates): printed back, they are escaped instead of
+    ending the command with UnicodeEncodeError."""
+    for stream in (sys.stdout, sys.stderr):
+        if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):  # pragma: no cover - a stream that cannot change
+                pass
+
+
 def main(argv: list[str] | None = None) -> int:
+    from .names import OutsideRoot
+    from .workspace import WorkspaceTooLarge
+
+    _tolerant_output()
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:      # --help, --version (0) or a usage error (2, already reported)
+        return exc.code if isinstance(exc.code, int) else 2
     if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+        return _error("expected a command (see 'optdesign --help')")
     args.process_entry = argv is None   # this process is the command (not a caller in-process)
     try:
         rc = args.func(args)
@@ -65,6 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         return _error(str(exc))
     except UsageError as exc:
+        return _error(str(exc))
+    except (WorkspaceTooLarge, OutsideRoot) as exc:
         return _error(str(exc))
     except KeyboardInterrupt:
         print("optdesign: interrupted", file=sys.stderr)

@@ -21,10 +21,10 @@ from .config import Config, ConfigError
 from .indices import INDEX_KINDS, global_summary, local_index
 from .mechanisms import Mechanism, get
 from .mechanisms.base import IndexRequest
-from .workspace import Workspace, sample
+from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 
 __all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests"]
+           "index_requests", "check_size"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -37,7 +37,18 @@ def mechanism_class(config: Config) -> type[Mechanism]:
 
 
 def workspace_of(config: Config) -> Workspace:
-    return sample(config.workspace, mechanism_class(config).pose_names)
+    try:
+        return sample(config.workspace, mechanism_class(config).pose_names)
+    except WorkspaceTooLarge as exc:       # a spec built in Python, past the loader's check
+        raise ConfigError(config.source, "workspace", str(exc)) from None
+
+
+def check_size(n_points: int, n_designs: int) -> None:
+    """Raise WorkspaceTooLarge if one evaluation call of ``n_designs`` designs
+    over ``n_points`` points would pass the limit (before anything is allocated)."""
+    if n_points * n_designs > MAX_POINTS:
+        raise WorkspaceTooLarge(f"{n_designs:,} designs x {n_points:,} workspace points = "
+                                f"{n_points * n_designs:,} evaluations in one call; at most {MAX_POINTS:,} are allowed")
 
 
 def build(config: Config, design: Mapping[str, float] | str) -> Mechanism:
@@ -76,6 +87,8 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
     if isinstance(designs, Mapping):
         arr = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in designs.items()}
     else:  # a list of mappings
+        if not designs:
+            raise ValueError("no designs to evaluate")
         keys = list(designs[0])
         arr = {k: np.array([d[k] for d in designs], dtype=float) for k in keys}
     D = max(v.shape[0] for v in arr.values())
@@ -136,6 +149,10 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
     (missing ones take their config value) or is a list of mappings."""
     ws = workspace if workspace is not None else workspace_of(config)
     full = _stack_designs(config, designs)
+    try:
+        check_size(ws.n, len(next(iter(full.values()))))
+    except WorkspaceTooLarge as exc:
+        raise ConfigError(config.source, "workspace", str(exc)) from None
     _, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws,
                                          index_requests(config, index_names), keep_local)
     return Evaluation(summary, reach, reach.mean(axis=-1), local, ws)
@@ -235,6 +252,7 @@ class Evaluator:
 
     # ------------------------------------------------------------------ evaluation
     def __call__(self, X: np.ndarray) -> dict:
+        check_size(self.workspace.n, np.atleast_2d(X).shape[0])
         designs = self.designs(X)
         mech, summary, reach, _ = _evaluate(self.mechanism, self.fixed, designs, self.workspace, self.requests_all)
         frac = reach.mean(axis=-1)

@@ -52,6 +52,8 @@ class IndexKind:
     default_convention: str | None
     func: Callable[..., np.ndarray]
     description: str
+    #: the keys a config's ``options`` may give this index
+    options: tuple[str, ...] = ()
 
 
 def _dynamic(M, J, convention, options):
@@ -100,7 +102,7 @@ INDEX_KINDS: dict[str, IndexKind] = {
     "dynamic": IndexKind("dynamic", "M", "min", (), None, _dynamic,
                          "dynamic index sigma_max(M) = sqrt(lambda_max(M^T M)) (eq. 28)"),
     "stiffness": IndexKind("stiffness", "J", "max", ("lambda_min_K", "sqrt_lambda_min_K"), "lambda_min_K", _stiffness,
-                           "stiffness index from K = J^T k J (eq. 30-33)"),
+                           "stiffness index from K = J^T k J (eq. 30-33)", ("k",)),
     "isotropy": IndexKind("isotropy", "J", "min", ("frobenius", "two_norm"), "frobenius", _isotropy,
                           "velocity isotropy, condition number of J (eq. 36)"),
     "dexterity": IndexKind("dexterity", "J", "max", ("plain", "normalized"), "plain", _dexterity,
@@ -108,7 +110,7 @@ INDEX_KINDS: dict[str, IndexKind] = {
     "manipulability": IndexKind("manipulability", "J", "max", (), None, _manip, "manipulability sqrt(det(J J^T))"),
     "driving": IndexKind("driving", "J", "max", (), None, _driving, "driving index sqrt(det(J^T J))"),
     "axis_stiffness": IndexKind("axis_stiffness", "J", "max", (), None, _axis_stiffness,
-                                "stiffness along one task axis, k (J^T J)_aa (options: axis, k)"),
+                                "stiffness along one task axis, k (J^T J)_aa (options: axis, k)", ("axis", "k")),
 }
 
 

@@ -158,16 +158,31 @@ class RunFolder:
                exact: bool = False, command: list[str] | None = None, pareto: bool = True) -> "RunFolder":
         """Make a new folder under ``parent``.  The folder is created with an
         exclusive ``mkdir``: two runs started at the same moment never share one.
-        With ``exact`` the name is used as is (and must not exist)."""
+        With ``exact`` the name is used as is (and must not exist).  The name
+        must be a safe folder name (optdesign.names) and the folder must lie
+        inside ``parent`` once symbolic links are resolved (RunFolderError)."""
+        from .names import OutsideRoot, check_inside, name_problem
+
+        problem = name_problem(name, max_len=200)
+        if problem:
+            raise RunFolderError(f"run folder name: {problem}")
         parent = Path(parent)
         parent.mkdir(parents=True, exist_ok=True)
         if exact:
             path = parent / name
+            try:
+                check_inside(parent, path)
+            except OutsideRoot as exc:
+                raise RunFolderError(str(exc)) from None
             path.mkdir()
         else:
             stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
             while True:
                 path = parent / f"{name}-s{seed}-{stamp}-{secrets.token_hex(2)}"
+                try:
+                    check_inside(parent, path)
+                except OutsideRoot as exc:
+                    raise RunFolderError(str(exc)) from None
                 try:
                     path.mkdir()
                     break

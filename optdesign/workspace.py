@@ -14,7 +14,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["WorkspaceSpec", "Workspace", "sample"]
+__all__ = ["WorkspaceSpec", "Workspace", "sample", "point_count", "MAX_POINTS", "WorkspaceTooLarge"]
+
+#: the most workspace points of a spec, and the most (point, design) pairs of
+#: one evaluation call (the numpy path needs about 250-500 bytes per pair,
+#: a compiled path about 12): one limit, however the points are given
+MAX_POINTS = 10_000_000
+
+
+class WorkspaceTooLarge(ValueError):
+    """A workspace (or points x designs) beyond :data:`MAX_POINTS`."""
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,32 @@ class Workspace:
         return f"{s.type}: " + ", ".join(parts) + f"; {how}; {self.n} points"
 
 
+def _axis_count(lo: float, hi: float, step: float | None, count: int | None) -> int:
+    """Points of :func:`_axis_grid` on one axis, computed without allocating."""
+    if hi == lo:
+        return 1
+    if step is not None:
+        ratio = (hi - lo) / step + 1e-9 if step > 0 else math.inf
+        return int(math.floor(ratio)) + 1 if ratio < 1e18 else 10 ** 18
+    return int(count)
+
+
+def point_count(spec: WorkspaceSpec, names: tuple[str, ...]) -> int:
+    """The number of points :func:`sample` allocates for ``spec`` (for a
+    cylinder grid: the square grid before the disc is cut from it)."""
+    if spec.sampling != "grid":
+        return int(spec.points)
+    if spec.type == "box":
+        n = 1
+        for a in names:
+            lo, hi = spec.axes[a]
+            n *= _axis_count(lo, hi, spec.step, spec.points_per_axis)
+        return n
+    side = _axis_count(-spec.radius, spec.radius, spec.step, spec.points_per_axis)
+    lo3, hi3 = spec.axes[names[2]]
+    return side * side * _axis_count(lo3, hi3, spec.step, spec.points_per_axis)
+
+
 def _axis_grid(lo: float, hi: float, step: float | None, count: int | None) -> np.ndarray:
     if hi == lo:
         return np.array([lo])
@@ -103,7 +138,11 @@ def _unit_samples(kind: str, n: int, dim: int, seed: int) -> np.ndarray:
 
 
 def sample(spec: WorkspaceSpec, names: tuple[str, ...]) -> Workspace:
-    """Sample the region of ``spec`` over the pose axes ``names`` (SI units)."""
+    """Sample the region of ``spec`` over the pose axes ``names`` (SI units).
+    Raises :class:`WorkspaceTooLarge` before allocating more than MAX_POINTS points."""
+    n = point_count(spec, names)
+    if n > MAX_POINTS:
+        raise WorkspaceTooLarge(f"the workspace has {n:,} points; at most {MAX_POINTS:,} are allowed")
     if spec.type == "box":
         ranges = [spec.axes[a] for a in names]
         free = [i for i, (lo, hi) in enumerate(ranges) if hi > lo]

@@ -155,3 +155,98 @@ def test_dask_errors_are_one_line(tmp_path):
                "--scheduler", f"tcp://127.0.0.1:{port}", "--timeout", "1"])
     assert rc == 2
     assert not any(tmp_path.iterdir())          # nothing was run
+
+
+# ----------------------------------------------------------------------------- hostile listeners
+class _Listener:
+    """A TCP server on 127.0.0.1 that accepts connections and then says
+    nothing (``silent``) or answers garbage (``garbage``)."""
+
+    def __init__(self, mode: str):
+        import threading
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(16)
+        self.port = self.sock.getsockname()[1]
+        self.mode, self.conns = mode, []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        while True:
+            try:
+                c, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(c)
+            if self.mode == "garbage":
+                try:
+                    c.sendall(b"HTTP/1.1 200 OK\r\n\r\n" + b"\xff\x00 not a scheduler " * 500)
+                except OSError:
+                    pass
+
+    def close(self):
+        for c in self.conns:
+            c.close()
+        self.sock.close()
+
+
+@pytest.mark.parametrize("mode", ["silent", "garbage", "tls without certificates"])
+def test_a_listener_that_is_not_a_scheduler(tmp_path, mode):
+    """The batch gives up within --timeout (plus start-up) with one line and no
+    traceback, whatever answers on the port; nothing is written."""
+    listener = _Listener("silent" if mode == "silent" else "garbage")
+    scheme = "tls" if mode.startswith("tls") else "tcp"
+    try:
+        t0 = time.monotonic()
+        r = subprocess.run([sys.executable, "-m", "optdesign.cli", "batch", str(BATCH_SMALL), "--out",
+                            str(tmp_path / "runs"), "--backend", "dask", "--scheduler",
+                            f"{scheme}://127.0.0.1:{listener.port}", "--timeout", "2"],
+                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                           env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])})
+        elapsed = time.monotonic() - t0
+    finally:
+        listener.close()
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith("optdesign: error: "), r.stderr
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr
+    assert elapsed < 2 + 30, elapsed            # the timeout, plus the interpreter's start-up on a busy machine
+    assert not (tmp_path / "runs").exists()
+
+
+def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
+    """SIGTERM to a batch running on Dask: exit 143, one line, the client closed
+    and no process left in the batch's group."""
+    address, procs = cluster
+    cfg = edited_copy(BATCH_SMALL, {"generations: 5": "generations: 60"}, "slow.yaml")
+    out = tmp_path / "runs"
+    proc = subprocess.Popen([sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--out", str(out),
+                             "--backend", "dask", "--scheduler", address, "--timeout", "30"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                            start_new_session=True)
+    try:
+        t0 = time.monotonic()
+        while not list(out.glob("*/stages/*")):
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() - t0 < 120
+            time.sleep(0.05)
+        os.kill(proc.pid, signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines()[-1].startswith("optdesign: batch interrupted (SIGTERM)"), err
+    assert "Traceback" not in err
+    t0 = time.monotonic()
+    while True:
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        assert time.monotonic() - t0 < 20, "a process of the batch's group is left"
+        time.sleep(0.1)
+    for name, p in procs.items():      # the workers would finish the run they hold: no need to wait
+        if name.startswith("worker"):
+            p.kill()

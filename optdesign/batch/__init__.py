@@ -16,11 +16,11 @@ The package, by concern (each layer imports only those before it):
 """
 from __future__ import annotations
 
-from .execute import BackendError, connect_dask, run_batch, run_task
+from .execute import BackendError, BatchInterrupted, connect_dask, run_batch, run_task, stop_on_signals
 from .schema import BatchFile, is_batch_file, load_batch_file
 from .summary import collect_folders, group_stats, row_from_folder, summarize, summary_plot, summary_tables
 from .tasks import Task, config_key, plan
 
-__all__ = ["Task", "BackendError", "plan", "load_batch_file", "is_batch_file", "run_task", "run_batch",
+__all__ = ["Task", "BackendError", "BatchInterrupted", "stop_on_signals", "plan", "load_batch_file", "is_batch_file", "run_task", "run_batch",
            "row_from_folder", "collect_folders", "group_stats", "summary_tables", "summary_plot", "summarize",
            "config_key", "BatchFile", "connect_dask"]

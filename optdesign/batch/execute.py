@@ -17,22 +17,74 @@ Backends (both through joblib):
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Sequence
 
 from ..config import ConfigError, parse_config
+from ..names import OutsideRoot, check_inside
 from ..runs import RunFolder, RunFolderError
 from .schema import sweep_label
 from .summary import row_from_folder
 from .tasks import Task, config_key
 
-__all__ = ["BackendError", "run_task", "run_batch", "connect_dask"]
+__all__ = ["BackendError", "BatchInterrupted", "stop_on_signals", "run_task", "run_batch", "connect_dask",
+           "check_shared_folder"]
 
 
 class BackendError(RuntimeError):
     """The parallel backend cannot be used (extra not installed, scheduler unreachable, no workers)."""
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM reached the batch (``signum`` says which)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def stop_on_signals():
+    """SIGINT and SIGTERM raise :class:`BatchInterrupted` in the main thread
+    (once: a second signal while the workers are being stopped is ignored, so
+    the stopping is never cut short); outside the main thread it does nothing.  :func:`run_batch` then stops its
+    workers before the exception leaves it."""
+    fired = []
+
+    def handler(signum, frame):
+        if fired:
+            return
+        fired.append(signum)
+        raise BatchInterrupted(signum)
+
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():   # signals reach the main thread only
+        yield
+        return
+    old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def _kill_local_workers() -> None:
+    """Kill joblib's loky worker processes and their children (joblib's own
+    abort kills the workers of the call, and may start fresh ones for the
+    next call; these are killed too, so no process outlives the batch)."""
+    try:
+        from joblib.externals.loky import reusable_executor
+    except ImportError:  # pragma: no cover - joblib without loky
+        return
+    ex = getattr(reusable_executor, "_executor", None)
+    if ex is not None:
+        ex.shutdown(wait=True, kill_workers=True)
 
 
 def run_task(task: Task, out: str, quiet: bool = True) -> dict:
@@ -47,6 +99,10 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
     folder = RunFolder(Path(out) / task.folder_name)
     state = "new"
     try:
+        try:      # a symbolic link in the batch folder never takes a run elsewhere
+            check_inside(out, folder.path)
+        except OutsideRoot as exc:
+            raise RunFolderError(str(exc)) from None
         cfg = parse_config(task.config_text, source=task.source)
         if folder.path.exists():
             m = folder.read_manifest()
@@ -83,25 +139,77 @@ def _empty_row(task: Task, path: Path) -> dict:
             "wall_time_s": None, "folder": str(path)}
 
 
+def _probe_scheduler(scheduler: str, timeout: float, security) -> None:
+    """Connect to ``scheduler`` on a private event loop and ask who it is,
+    all within ``timeout`` seconds: a listener that says nothing, answers
+    garbage or is not a Dask scheduler gives BackendError (one line), and no
+    ``distributed.Client`` is made until the answer is right."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(scheduler, timeout=timeout, **security.get_connection_args("client"))
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(ask(), timeout))
+    except (TimeoutError, asyncio.TimeoutError, OSError):
+        raise BackendError(f"cannot reach the Dask scheduler at {scheduler}: no scheduler answered "
+                           f"within {timeout:g} s") from None
+    except Exception as exc:  # noqa: BLE001 - garbage on the port: MemoryError (a huge frame length), ValueError, ...
+        raise BackendError(f"{scheduler} does not answer as a Dask scheduler (reading its answer gave "
+                           f"{type(exc).__name__})") from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise BackendError(f"{scheduler} does not answer as a Dask scheduler (it answered {type(answer).__name__})")
+
+
+def _silence_client_del() -> None:
+    """A ``distributed.Client`` that failed to start complains from its
+    ``__del__`` when collected ('Exception ignored in Client.__del__' and a
+    traceback); our one-line error has said it all."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable):
+        if "Client.__del__" in repr(getattr(unraisable, "object", "")):
+            return
+        previous(unraisable)
+
+    sys.unraisablehook = hook
+
+
 def connect_dask(scheduler: str, timeout: float = 10.0, check_version: bool = True):
     """A ``distributed.Client`` on ``scheduler`` with at least one worker.
 
-    Raises BackendError (one line) if the ``dask`` extra is missing, the
-    scheduler cannot be reached within ``timeout`` seconds, no worker joins
-    within ``timeout`` seconds, or a worker cannot import this optdesign.
+    Raises BackendError (one line) if the ``dask`` extra is missing, a
+    ``tls://`` address has no certificates configured, nothing answers as a
+    Dask scheduler within ``timeout`` seconds (nothing listening, a listener
+    that says nothing or answers garbage), no worker joins within ``timeout``
+    seconds, or a worker cannot import this optdesign.
     """
     try:
         from distributed import Client
+        from distributed.security import Security
     except ImportError:
         raise BackendError("--backend dask needs the dask extra: pip install 'optdesign[dask]'") from None
     import logging
 
+    security = Security()
+    if scheduler.startswith("tls://") and security.get_connection_args("client").get("ssl_context") is None:
+        raise BackendError(f"{scheduler}: tls:// needs certificates in the Dask configuration "
+                           "(distributed.comm.tls.ca-file, distributed.comm.tls.client.cert and .key)")
     logging.getLogger("distributed").setLevel(logging.CRITICAL)   # our one-line error says it all
+    _probe_scheduler(scheduler, timeout, security)
     try:
-        client = Client(scheduler, timeout=timeout, set_as_default=False)
+        client = Client(scheduler, timeout=timeout, set_as_default=False, security=security)
     except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError, ValueError for a bad address
+        _silence_client_del()
         raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s "
-                           f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'})") from None
+                           f"({type(exc).__name__}: {str(exc).splitlines()[0][:200] if str(exc) else 'no answer'})") from None
     logging.getLogger("distributed").setLevel(logging.WARNING)
     try:
         client.wait_for_workers(1, timeout=timeout)
@@ -125,7 +233,7 @@ def connect_dask(scheduler: str, timeout: float = 10.0, check_version: bool = Tr
     return client
 
 
-def _check_shared_folder(client, out_abs: str) -> None:
+def check_shared_folder(client, out_abs: str) -> None:
     """Every Dask worker must see the run folders' parent (a shared file system)."""
     marker = Path(out_abs) / f".optdesign-batch-{os.getpid()}-{os.urandom(4).hex()}"
     marker.write_text("")
@@ -137,6 +245,9 @@ def _check_shared_folder(client, out_abs: str) -> None:
     if blind:
         raise BackendError(f"Dask worker {blind[0]} does not see {out_abs}; with --backend dask, --out must be "
                            "a folder on a file system shared by this machine and every worker")
+
+
+_check_shared_folder = check_shared_folder   # the name the tests have used
 
 
 def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, backend: str = "local",
@@ -178,6 +289,9 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
                     collect(Parallel(return_as="generator_unordered", batch_size=1)(
                         delayed(run_task)(t, out_abs) for t in todo))
                 break
+            except KeyboardInterrupt:       # a signal (BatchInterrupted) or Ctrl-C: no worker outlives us
+                _kill_local_workers()
+                raise
             except TerminatedWorkerError as exc:
                 attempt += 1
                 if attempt > retries:
@@ -193,7 +307,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
             client = connect_dask(scheduler, timeout)
         try:
             Path(out_abs).mkdir(parents=True, exist_ok=True)
-            _check_shared_folder(client, out_abs)
+            check_shared_folder(client, out_abs)
             # every run at once: Dask balances them over the worker threads (joblib's Dask
             # backend always uses all of them, whatever n_jobs says)
             with parallel_config(backend="dask", client=client, retries=retries, n_jobs=-1,

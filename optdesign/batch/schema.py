@@ -17,9 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from ..config import ConfigError, load_config, parse_config
+from ..config import ConfigError, load_config, parse_config, yamlsafe
+from ..config.reader import plain, shorten, suggest
+from ..names import name_problem
 
 __all__ = ["BatchFile", "is_batch_file", "load_batch_file", "sweep_label"]
 
@@ -32,8 +32,8 @@ _MAX_COMBINATIONS = 10_000
 def is_batch_file(path: str | os.PathLike) -> bool:
     """True if the YAML file is a batch file (a mapping with a ``base`` or ``sweep`` key)."""
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except Exception:  # noqa: BLE001 - not readable: let load_config report it
+        data, _ = yamlsafe.load_file(path)
+    except ConfigError:  # not readable: let load_config report it
         return False
     return isinstance(data, dict) and ("base" in data or "sweep" in data)
 
@@ -57,9 +57,10 @@ def _resolve_path(data: dict, dotted: str, source: str, where: str, base_src: st
     """The mapping holding the last key of ``dotted`` in ``data``, and that key."""
     parts = dotted.split(".")
     if any(p == "" for p in parts):
-        _fail(source, where, f"expected a dotted key such as parameters.m_platform, got {dotted!r}")
+        _fail(source, where, f"expected a dotted key such as parameters.m_platform, got {shorten(dotted)}")
     if parts[0] not in _SWEEPABLE:
-        _fail(source, where, f"can only change keys under {', '.join(sorted(_SWEEPABLE))}; got {parts[0]!r}")
+        _fail(source, where, f"can only change keys under {', '.join(sorted(_SWEEPABLE))}; got "
+                             f"{shorten(parts[0])}{suggest(parts[0], _SWEEPABLE)}")
     if len(parts) < 2:
         _fail(source, where, f"expected a key inside {parts[0]} (such as {parts[0]}.<name>), not the whole section")
     if parts[:2] == ["optimizer", "seed"]:
@@ -67,7 +68,8 @@ def _resolve_path(data: dict, dotted: str, source: str, where: str, base_src: st
     node: Any = data
     for i, p in enumerate(parts[:-1]):
         if not isinstance(node, dict) or p not in node:
-            _fail(source, where, f"{base_src} has no key {'.'.join(parts[:i + 1])!r}")
+            _fail(source, where, f"{base_src} has no key {shorten('.'.join(parts[:i + 1]))}"
+                                 f"{suggest(p, node) if isinstance(node, dict) else ''}")
         node = node[p]
         if node is None:
             node = {}
@@ -98,8 +100,12 @@ def _label(dotted: str, value: Any) -> str:
     if isinstance(value, float):
         return f"{last}={value:g}"
     if isinstance(value, (dict, list)):
-        return f"{last}={json.dumps(value, separators=(',', ':'))}"
-    return f"{last}={value}"
+        text = json.dumps(value, separators=(',', ':'))
+    else:
+        text = str(value)
+    if not text.isprintable():          # one line whatever the value (the label heads a YAML file)
+        text = text.encode("unicode_escape").decode("ascii")
+    return f"{last}={text[:80] + '...' if len(text) > 80 else text}"
 
 
 def load_batch_file(path: str | os.PathLike) -> BatchFile:
@@ -124,38 +130,29 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
     """
     source = str(path)
     p = Path(path)
-    try:
-        text = p.read_text()
-    except FileNotFoundError:
-        _fail(source, "", "file not found")
-    except (OSError, UnicodeDecodeError) as exc:
-        _fail(source, "", f"cannot read file ({type(exc).__name__})")
-    try:
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        _fail(source, "", f"YAML syntax error{where}: {getattr(exc, 'problem', None) or 'invalid YAML'}")
+    raw, _ = yamlsafe.load_file(path, what="YAML batch file")
     if not isinstance(raw, dict):
         _fail(source, "", "expected a mapping with 'base' and 'sweep'")
     for k in raw:
         if k not in _BATCH_KEYS:
-            _fail(source, str(k), f"unknown key; expected one of {', '.join(sorted(_BATCH_KEYS))}")
+            _fail(source, shorten(k)[1:-1] if isinstance(k, str) else shorten(k),
+                  f"unknown key{suggest(k, _BATCH_KEYS)}; expected one of {', '.join(sorted(_BATCH_KEYS))}")
     if "base" not in raw:
         _fail(source, "base", "missing required key (the config file to vary)")
     base = raw.get("base")
     if not isinstance(base, str) or not base:
         _fail(source, "base", "expected the path of a config file")
     base_path = Path(base) if Path(base).is_absolute() else p.parent / base
-    if not base_path.is_file():
-        _fail(source, "base", f"config file not found: {base_path}")
+    if not base_path.exists() and not base_path.is_symlink():
+        _fail(source, "base", f"config file not found: {plain(str(base_path))}")
     base_cfg = load_config(base_path)        # a mistake in the base names the base file
     base_src = str(base_path)
-    base_data = yaml.safe_load(base_path.read_text())
+    base_data = yamlsafe.load(base_cfg.text, base_src)   # the text just read and validated
 
     name = raw.get("name", base_cfg.name)
-    if not isinstance(name, str) or not name or any(c in name for c in "/\\\0") or name.startswith("."):
-        _fail(source, "name", f"expected a plain name (no slashes), got {name!r}")
+    problem = name_problem(name)
+    if problem:
+        _fail(source, "name", f"{problem}, got {shorten(name)}")
 
     seeds = None
     if "seeds" in raw:
@@ -171,15 +168,16 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
                 _fail(source, "seeds", "expected at least one seed")
             for i, v in enumerate(s):
                 if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2 ** 32:
-                    _fail(source, f"seeds[{i}]", f"expected an integer in [0, 2^32), got {v!r}")
+                    _fail(source, f"seeds[{i}]", f"expected an integer in [0, 2^32), got {shorten(v)}")
             seeds = [int(v) for v in s]
 
     pareto = raw.get("pareto", False)
     if not isinstance(pareto, bool):
-        _fail(source, "pareto", "expected true or false")
+        _fail(source, "pareto", f"expected true or false, got {shorten(pareto)}"
+                                + (" (yes/no/on/off are strings here)" if isinstance(pareto, str) else ""))
     mode = raw.get("mode", "grid")
     if mode not in ("grid", "zip"):
-        _fail(source, "mode", f"expected grid or zip, got {mode!r}")
+        _fail(source, "mode", f"expected grid or zip, got {shorten(mode)}{suggest(mode, ('grid', 'zip'))}")
 
     data = copy.deepcopy(base_data)
     fixed = raw.get("set") or {}
@@ -216,17 +214,20 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
         for k, v in zip(keys, combo):
             _apply(d, k, v, source, f"sweep.{k}", base_src)
         run_name = f"{name}-c{i:0{width}d}" if keys else name
+        if name_problem(run_name):
+            _fail(source, "name", f"the run names ({run_name[:20]}...) would have {len(run_name)} characters; "
+                                  "expected a shorter name")
         d["name"] = run_name
         label = ", ".join(_label(k, v) for k, v in zip(keys, combo))
         header = f"# resolved from base {Path(base).name}" + (f"; sweep: {label}" if label else "") + "\n"
-        text = header + yaml.safe_dump(d, sort_keys=False, default_flow_style=None, allow_unicode=True)
+        text = header + yamlsafe.dump(d, sort_keys=False, default_flow_style=None, allow_unicode=True)
         try:
             parse_config(text, source=source)
         except ConfigError as exc:
             blame = next((k for k in keys if exc.path and (exc.path == k or exc.path.startswith(k + ".")
                                                             or k.startswith(exc.path + "."))), None)
             if blame is not None:
-                _fail(source, f"sweep.{blame}", f"value {combo[keys.index(blame)]!r} gives {exc.path}: {exc.message}")
+                _fail(source, f"sweep.{blame}", f"value {shorten(combo[keys.index(blame)])} gives {exc.path}: {exc.message}")
             what = f"combination {i} ({label})" if label else "the resolved config"
             _fail(source, "set" if fixed and not label else "sweep", f"{what} gives {exc.path or 'config'}: {exc.message}")
         out.append((run_name, text, dict(zip(keys, combo))))

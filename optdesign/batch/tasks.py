@@ -7,14 +7,16 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Sequence
 
-from ..config import load_config, parse_config
+from ..config import ConfigError, load_config, parse_config
 from ..runs import run_key
 from .schema import is_batch_file, load_batch_file
 
-__all__ = ["Task", "config_key", "plan"]
+__all__ = ["Task", "config_key", "plan", "MAX_RUNS"]
+
+#: the most runs one batch may plan (configs x sweep combinations x seeds)
+MAX_RUNS = 100_000
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,9 @@ def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequenc
     seen: set[str] = set()
 
     def add(name, text, source, seed_list, par, sweep):
+        if len(tasks) + len(seed_list) > MAX_RUNS:      # before the tasks are made
+            raise ConfigError(source, "seeds", f"the batch would hold more than {MAX_RUNS:,} runs (configs x seeds); "
+                                               "split it")
         for s in seed_list:
             t = Task(name, text, source, int(s), run_key(text, int(s), {"pareto": par}), par, sweep)
             if t.folder_name not in seen:
@@ -65,10 +70,12 @@ def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequenc
             par = bf.pareto if pareto is None else pareto
             for name, text, sweep in bf.combinations:
                 cfg = parse_config(text, source=str(path))
+                cfg.check_optimizable(pareto=par)
                 add(name, text, str(path), _seeds(cfg, n_seeds, seeds, bf.seeds), par, sweep)
         else:
             cfg = load_config(path)
-            add(cfg.name, Path(path).read_text(), str(path), _seeds(cfg, n_seeds, seeds, None), bool(pareto), {})
+            cfg.check_optimizable(pareto=bool(pareto))
+            add(cfg.name, cfg.text, str(path), _seeds(cfg, n_seeds, seeds, None), bool(pareto), {})
     return tasks
 
 

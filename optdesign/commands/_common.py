@@ -1,6 +1,8 @@
 """Helpers shared by the subcommands."""
 from __future__ import annotations
 
+import os
+import stat
 from typing import Sequence
 
 from ..config import Config, load_config
@@ -10,6 +12,54 @@ PACKAGED_PAPER_CONFIG = "p4s_paper.yaml"
 
 class UsageError(Exception):
     """A mistake in the command line (exit status 2, one line)."""
+
+
+def check_name_option(value: str | None, option: str) -> None:
+    """A name given on the command line that becomes part of a folder name."""
+    from ..config.reader import shorten
+    from ..names import name_problem
+
+    if value is None:
+        return
+    problem = name_problem(value)
+    if problem:
+        raise UsageError(f"{option}: {problem}, got {shorten(value)}")
+
+
+def check_out_root(path: str, option: str = "--out") -> None:
+    """An output root that exists must be a folder, and so must every existing
+    folder above it; nothing is created here (see :func:`make_out_root`)."""
+    from pathlib import Path
+
+    from ..config.reader import plain, shorten
+
+    p = Path(path)
+    if not path or "\x00" in path:
+        raise UsageError(f"{option}: expected a folder, got {shorten(path)}")
+    for q in (p, *p.parents):
+        try:
+            st = os.stat(q)          # follows links; a link loop or too long a name raises
+        except (FileNotFoundError, NotADirectoryError):
+            continue
+        except OSError as exc:
+            raise UsageError(f"{option}: cannot use {plain(path)} ({exc.strerror or type(exc).__name__})") from None
+        if not stat.S_ISDIR(st.st_mode):
+            what = "is not a folder" if q == p else f"lies under {plain(str(q))}, which is not a folder"
+            raise UsageError(f"{option}: {plain(path)} {what}")
+
+
+def make_out_root(path: str, option: str = "--out") -> None:
+    """Create the output root (just before the first write)."""
+    from pathlib import Path
+
+    from ..config.reader import plain
+
+    check_out_root(path, option)
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{option}: cannot make the folder {plain(path)} "
+                         f"({exc.strerror or type(exc).__name__})") from None
 
 
 def add_config_arg(p, optional: bool = False):
@@ -35,7 +85,10 @@ def open_config(path: str | None) -> Config:
 def design_names(cfg: Config, requested: Sequence[str] | None) -> list[str]:
     if not requested:
         return [n for n in cfg.designs if n != "initial" or len(cfg.designs) == 1]
+    from ..config.reader import shorten, suggest
+
     for n in requested:
         if n not in cfg.designs:
-            raise UsageError(f"{cfg.source}: designs: no design named {n!r}; the config has {', '.join(cfg.designs)}")
+            raise UsageError(f"{cfg.source}: designs: no design named {shorten(n)}{suggest(n, cfg.designs)}; "
+                             f"the config has {', '.join(cfg.designs)}")
     return list(requested)

@@ -18,13 +18,22 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ._common import UsageError, design_names, open_config
-    from ..atlas import write_atlas
+    from ._common import UsageError, check_out_root, design_names, make_out_root, open_config
+    from ..atlas import atlas_plane, write_atlas
+    from ..names import OutsideRoot
 
-    cfg = open_config(args.config)
     if args.resolution is not None and not 2 <= args.resolution <= 2000:
         raise UsageError(f"--resolution: expected an integer in [2, 2000], got {args.resolution}")
-    for name in design_names(cfg, args.design):
-        out = write_atlas(cfg, name, Path(args.out) / f"{cfg.name}-{name}", args.resolution, plots=not args.no_plots)
+    check_out_root(args.out)
+    cfg = open_config(args.config)
+    names = design_names(cfg, args.design)
+    atlas_plane(cfg, args.resolution)          # its size is checked before anything is written
+    make_out_root(args.out)
+    for name in names:
+        try:
+            out = write_atlas(cfg, name, Path(args.out) / f"{cfg.name}-{name}", args.resolution,
+                              plots=not args.no_plots, root=args.out)
+        except OutsideRoot as exc:
+            raise UsageError(f"--out: {exc}") from None
         print(f"wrote {out}/ (local_indices.csv" + ("" if args.no_plots else ", " + ", ".join(f"{k}.png" for k in cfg.indices)) + ")")
     return 0

@@ -38,34 +38,60 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ..batch import BackendError, plan, run_batch, summarize
+    from ..batch import BatchInterrupted, stop_on_signals
+
+    try:
+        with stop_on_signals():
+            return _run(args)
+    except BatchInterrupted as exc:
+        print(f"optdesign: batch interrupted ({'SIGINT' if exc.signum == 2 else 'SIGTERM'}); its workers are "
+              "stopped, finished runs are kept and a rerun of the same command resumes the others", file=sys.stderr)
+        return 128 + exc.signum
+
+
+def _seed_list(text: str) -> list[int]:
+    from ..config.reader import shorten
     from ._common import UsageError
 
-    if args.seeds is not None and args.seeds < 1:
-        raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
-    if args.jobs is not None and args.jobs < 1:
-        raise UsageError(f"--jobs: expected a positive integer, got {args.jobs}")
-    if args.retries < 0:
-        raise UsageError(f"--retries: expected a non-negative integer, got {args.retries}")
-    if not args.timeout > 0:
-        raise UsageError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
+    parts = [s.strip() for s in text.split(",")]
+    if not any(parts):
+        raise UsageError(f"--seed-list: expected at least one seed (integers separated by commas), got {shorten(text)}")
+    if any(not p for p in parts):
+        raise UsageError(f"--seed-list: an empty entry in {shorten(text)}; expected integers separated by commas")
+    try:
+        seeds = [int(p) for p in parts]
+    except ValueError:
+        raise UsageError(f"--seed-list: expected integers separated by commas, got {shorten(text)}") from None
+    if any(not 0 <= s < 2 ** 32 for s in seeds):
+        raise UsageError("--seed-list: expected seeds in [0, 2^32)")
+    return seeds
+
+
+def _run(args) -> int:
+    from ..batch import BackendError, connect_dask, plan, run_batch, summarize
+    from ._common import UsageError, check_out_root, make_out_root
+
+    if args.seeds is not None and not 1 <= args.seeds <= 100_000:
+        raise UsageError(f"--seeds: expected a positive integer (at most 100000), got {args.seeds}")
+    if args.jobs is not None and not 1 <= args.jobs <= 1024:
+        raise UsageError(f"--jobs: expected a positive integer (at most 1024), got {args.jobs}")
+    if not 0 <= args.retries <= 100:
+        raise UsageError(f"--retries: expected a non-negative integer (at most 100), got {args.retries}")
+    if not 0 < args.timeout <= 86_400:
+        raise UsageError(f"--timeout: expected a positive number of seconds (at most 86400), got {args.timeout:g}")
     if args.backend == "dask" and not args.scheduler:
         raise UsageError("--backend dask needs --scheduler tcp://HOST:PORT (the address of a running Dask scheduler)")
     if args.scheduler and not _ADDRESS.match(args.scheduler):
-        raise UsageError(f"--scheduler: expected an address such as tcp://HOST:PORT, got {args.scheduler!r}")
+        from ..config.reader import shorten
+
+        raise UsageError(f"--scheduler: expected an address such as tcp://HOST:PORT, got {shorten(args.scheduler)}")
     if args.backend == "dask" and args.jobs is not None:
         raise UsageError("--jobs is for --backend local; with dask every worker thread of the cluster takes runs "
                          "(start fewer workers or threads to run fewer at once)")
     if args.backend == "local" and args.scheduler:
         raise UsageError("--scheduler is only used with --backend dask")
-    seeds = None
-    if args.seed_list:
-        try:
-            seeds = [int(s) for s in args.seed_list.split(",") if s.strip()]
-        except ValueError:
-            raise UsageError(f"--seed-list: expected integers separated by commas, got {args.seed_list!r}") from None
-        if any(not 0 <= s < 2 ** 32 for s in seeds):
-            raise UsageError("--seed-list: expected seeds in [0, 2^32)")
+    seeds = _seed_list(args.seed_list) if args.seed_list is not None else None
+    check_out_root(args.out)
     tasks = plan(args.configs, args.seeds, seeds, pareto=args.pareto)
     if args.dry_run:
         from pathlib import Path
@@ -79,22 +105,42 @@ def run(args) -> int:
             print(f"{state:6} {d}" + (f"  [{sweep}]" if sweep else ""))
         print(f"batch: {len(tasks)} runs planned (dry run: nothing was run)", file=sys.stderr)
         return 0
-    where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
-    print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
-
-    def show(row):
-        if row.get("status") != "complete":
-            print(f"{row['folder']}: {row.get('status')} seed={row['seed']} ({row.get('error', '')})", flush=True)
-            return
-        opt = ", ".join(f"{k[4:]}={v:.6g}" for k, v in row.items() if k.startswith("opt_"))
-        print(f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective={row['objective']:.6g} at {opt}",
-              flush=True)
-
+    client = None
     try:
-        rows = run_batch(tasks, args.out, args.jobs, backend=args.backend, scheduler=args.scheduler,
-                         on_result=show, retries=args.retries, timeout=args.timeout)
-    except BackendError as exc:
-        raise UsageError(str(exc)) from None
+        if args.backend == "dask":     # connected (or refused, one line) before anything is said or written
+            try:
+                client = connect_dask(args.scheduler, args.timeout)
+            except BackendError as exc:
+                raise UsageError(str(exc)) from None
+        make_out_root(args.out)
+        if client is not None:
+            from pathlib import Path
+
+            from ..batch.execute import check_shared_folder
+
+            try:
+                check_shared_folder(client, str(Path(args.out).resolve()))
+            except BackendError as exc:
+                raise UsageError(str(exc)) from None
+        where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
+        print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
+
+        def show(row):
+            if row.get("status") != "complete":
+                print(f"{row['folder']}: {row.get('status')} seed={row['seed']} ({row.get('error', '')})", flush=True)
+                return
+            opt = ", ".join(f"{k[4:]}={v:.6g}" for k, v in row.items() if k.startswith("opt_"))
+            print(f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective={row['objective']:.6g} at {opt}",
+                  flush=True)
+
+        try:
+            rows = run_batch(tasks, args.out, args.jobs, backend=args.backend, scheduler=args.scheduler,
+                             on_result=show, retries=args.retries, timeout=args.timeout, client=client)
+        except BackendError as exc:
+            raise UsageError(str(exc)) from None
+    finally:
+        if client is not None:
+            client.close()
     csv_path, md_path = summarize(rows, args.out)
     print(md_path.read_text())
     print(f"summary: {csv_path}, {md_path}, {md_path.with_suffix('.png')}")

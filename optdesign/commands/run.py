@@ -25,7 +25,7 @@ def execute(args, after=None, cfg=None) -> int:
     """Run or resume; SIGINT/SIGTERM stop the run at a generation boundary (exit
     130/143, the folder resumable).  A signal that arrives once the run is
     complete changes nothing: the exit status is 0, as the manifest says."""
-    from ._common import UsageError, open_config
+    from ._common import UsageError, check_name_option, check_out_root, make_out_root, open_config
     from ..optimize.progress import Progress
     from ..optimize.runner import resume_run, start_run, summary_line
     from ..optimize.workers import Interrupted, StopRequest, default_jobs
@@ -39,6 +39,14 @@ def execute(args, after=None, cfg=None) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs: expected a positive integer, got {args.jobs}")
     jobs = default_jobs() if args.jobs is None else args.jobs
+    if not args.resume:
+        # everything that can be checked is checked before the run folder is made:
+        # a rejected run leaves nothing on disk
+        check_name_option(args.name, "--name")
+        check_out_root(args.out)
+        cfg = cfg if cfg is not None else open_config(args.config)
+        cfg.check_optimizable(pareto=not args.no_pareto)
+        make_out_root(args.out)
     stop = StopRequest(deferred=False).install()   # until the run starts, a signal stops at once
     done = False
     try:
@@ -46,7 +54,6 @@ def execute(args, after=None, cfg=None) -> int:
             if args.resume:
                 res = resume_run(args.resume, progress, jobs=jobs, stop=stop)
             else:
-                cfg = cfg if cfg is not None else open_config(args.config)
                 res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs,
                                 stop=stop)
         except RunFolderError as exc:

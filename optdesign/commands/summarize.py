@@ -23,8 +23,11 @@ def register(sub):
 
 def run(args) -> int:
     from ..batch import collect_folders, row_from_folder, summarize
-    from ._common import UsageError
+    from ._common import UsageError, check_out_root, make_out_root
     from ..runs import RunFolderError
+
+    if args.out is not None:
+        check_out_root(args.out)
 
     try:
         folders = collect_folders(args.paths)
@@ -40,12 +43,12 @@ def run(args) -> int:
             print(f"optdesign: skipping {exc}", file=sys.stderr)
     if not rows:
         raise UsageError("no readable run folders")
-    if args.out:
+    if args.out is not None:
         out = Path(args.out)
     else:
         first = Path(args.paths[0])
         out = first.parent if (first / "manifest.json").is_file() else first
-    out.mkdir(parents=True, exist_ok=True)
+    make_out_root(str(out), "--out" if args.out is not None else "RUNS")
     csv_path, md_path = summarize(rows, out, plot=not args.no_plot)
     print(md_path.read_text())
     png = md_path.with_suffix(".png")

@@ -12,13 +12,14 @@ everything is converted to SI on load.  The mechanism's parameter table
 """
 from __future__ import annotations
 
+import itertools
 import os
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-
-from .reader import UNITS, ConfigError, Reader, show
+from ..names import name_problem, safe_default_name
+from . import yamlsafe
+from .reader import UNITS, ConfigError, Reader, join, show, suggest
 from .schema import Config, DesignVariable, IndexSpec
 from .sections import optimizer_section, workspace_section
 
@@ -29,36 +30,23 @@ TOP_KEYS = {"mechanism", "name", "description", "parameters", "design_variables"
 
 
 def load_config(path: str | os.PathLike) -> Config:
-    """Read and validate a YAML config file.  Raises ConfigError on any mistake."""
+    """Read and validate a YAML config file.  Raises ConfigError on any mistake.
+
+    The file is read by :mod:`.yamlsafe` (a regular UTF-8 file of at most
+    1 MB; no duplicate keys, bounded aliases, YAML 1.2 scalars); the
+    Config's ``text`` is the text read, the one a run folder keeps."""
     source = str(path)
-    p = Path(path)
-    if not p.exists():
-        raise ConfigError(source, "", "file not found")
-    if p.is_dir():
-        raise ConfigError(source, "", "is a directory, expected a YAML file")
-    try:
-        raw_bytes = p.read_bytes()
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read file ({exc.strerror})") from None
-    try:
-        text = raw_bytes.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(source, "", "not a text file (expected UTF-8 YAML)") from None
-    if "\x00" in text:
-        raise ConfigError(source, "", "not a text file (contains NUL bytes)")
-    return parse_config(text, source=source)
+    text = yamlsafe.read_file(path, what="YAML config file")
+    cfg = parse_config(text, source=source)
+    cfg.text = text
+    return cfg
 
 
 def parse_config(text: str, source: str = "<string>") -> Config:
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or "invalid YAML"
-        raise ConfigError(source, "", f"YAML syntax error{where}: {problem}") from None
-    except (RecursionError, ValueError, TypeError) as exc:  # hostile YAML
-        raise ConfigError(source, "", f"YAML could not be read: {type(exc).__name__}") from None
+    """A validated Config from the text of a config file (see :func:`load_config`)."""
+    if len(text) > yamlsafe.MAX_BYTES:
+        raise ConfigError(source, "", f"a config of {len(text):,} characters; expected at most {yamlsafe.MAX_BYTES:,}")
+    data = yamlsafe.load(text, source)
     if data is None:
         raise ConfigError(source, "", "empty file; expected a mapping with at least 'mechanism', 'design_variables', 'workspace' and 'indices'")
     return from_mapping(data, source)
@@ -80,7 +68,8 @@ def _mechanism(r: Reader, value: Any, label: Any = None):
         return cls.name, cls
     mech_name = r.string(value, "mechanism")
     if mech_name not in available():
-        r.fail("mechanism", f"unknown mechanism {show(mech_name)}; expected one of {', '.join(available())}")
+        r.fail("mechanism", f"unknown mechanism {show(mech_name)}{suggest(mech_name, available())}; "
+                            f"expected one of {', '.join(available())}")
     return mech_name, get(mech_name)
 
 
@@ -93,9 +82,12 @@ def from_mapping(data: Any, source: str) -> Config:
     if not isinstance(data, dict):
         data = dict(data)
     r.only(data, "", TOP_KEYS)
-    mech_name, mech_cls = _mechanism(r, r.require(data, "mechanism", ""), data.get("name"))
-    name = data.get("name", Path(source).stem if source != "<string>" else mech_name)
-    name = r.string(name, "name")
+    label = _name(r, data["name"], "name") if "name" in data else None
+    mech_name, mech_cls = _mechanism(r, r.require(data, "mechanism", ""), label)
+    if label is not None:
+        name = label
+    else:    # the file's name, made safe as a folder name
+        name = safe_default_name(Path(source).stem, mech_name) if source != "<string>" else mech_name
     if data.get("description") is not None:
         r.string(data["description"], "description")
 
@@ -127,7 +119,8 @@ def from_mapping(data: Any, source: str) -> Config:
     if data.get("designs") is not None:
         ds = r.mapping(data["designs"], "designs")
         for dname, dval in ds.items():
-            dpath = f"designs.{dname}"
+            dpath = join("designs", dname)
+            _name(r, dname, dpath)
             dm = r.mapping(dval, dpath)
             r.only(dm, dpath, allowed_dv)
             design = {k: v.value for k, v in dvs.items()}
@@ -138,6 +131,7 @@ def from_mapping(data: Any, source: str) -> Config:
             _check_design(r, mech_cls, design, dpath)
             designs[dname] = design
     _check_design(r, mech_cls, {k: v.value for k, v in dvs.items()}, "design_variables")
+    _check_corners(r, mech_cls, dvs)
     if "initial" not in designs:
         designs = {"initial": {k: v.value for k, v in dvs.items()}, **designs}
     check_config = getattr(mech_cls, "check_config", None)
@@ -154,12 +148,14 @@ def from_mapping(data: Any, source: str) -> Config:
         r.fail("indices", "expected at least one index")
     indices: dict[str, IndexSpec] = {}
     for iname, ival in idx_raw.items():
-        ipath = f"indices.{iname}"
+        ipath = join("indices", iname)
+        _name(r, iname, ipath)
         im = r.mapping(ival if ival is not None else {}, ipath)
         r.only(im, ipath, {"kind", "convention", "sense", "options"})
         kind = r.string(im.get("kind", iname), f"{ipath}.kind")
         if kind not in INDEX_KINDS:
-            r.fail(f"{ipath}.kind", f"unknown index {kind!r}; expected one of {', '.join(sorted(INDEX_KINDS))}")
+            r.fail(f"{ipath}.kind", f"unknown index {show(kind)}{suggest(kind, INDEX_KINDS)}; "
+                                    f"expected one of {', '.join(sorted(INDEX_KINDS))}")
         spec = INDEX_KINDS[kind]
         conv = im.get("convention", spec.default_convention)
         if spec.conventions:
@@ -171,8 +167,14 @@ def from_mapping(data: Any, source: str) -> Config:
         sense = r.string(im.get("sense", spec.sense), f"{ipath}.sense", choices={"min", "max"})
         opts = im.get("options", {}) or {}
         opts = dict(r.mapping(opts, f"{ipath}.options"))
+        if opts and not spec.options:
+            r.fail(join(f"{ipath}.options", next(iter(opts))), f"index {kind!r} takes no options")
+        r.only(opts, f"{ipath}.options", set(spec.options))
         for ok, ov in opts.items():
-            opts[ok] = r.number(ov, f"{ipath}.options.{ok}", positive=(ok == "k"))
+            if ok == "axis":
+                opts[ok] = r.integer(ov, f"{ipath}.options.axis", minimum=0, maximum=len(mech_cls.pose_names) - 1)
+            else:
+                opts[ok] = r.number(ov, f"{ipath}.options.{ok}", positive=(ok == "k"))
         # the joint stiffness k of K = J^T k J: the mechanism's parameter unless the index sets its own
         if kind in ("stiffness", "axis_stiffness") and "k" not in opts and "k" in mech_cls.fixed_parameters:
             opts["k"] = float(params.get("k", mech_cls.fixed_parameters["k"]))
@@ -184,12 +186,13 @@ def from_mapping(data: Any, source: str) -> Config:
     if data.get("reference") is not None:
         ref = r.mapping(data["reference"], "reference")
         for dname, vals in ref.items():
-            rpath = f"reference.{dname}"
+            rpath = join("reference", dname)
             vm = r.mapping(vals, rpath)
             reference[dname] = {}
             for k, v in vm.items():
                 if k not in indices and k != "objective":
-                    r.fail(f"{rpath}.{k}", f"unknown index; expected one of {', '.join(indices)}")
+                    r.fail(join(rpath, k), f"unknown index{suggest(k, list(indices) + ['objective'])}; "
+                                           f"expected one of {', '.join(indices)}")
                 reference[dname][k] = r.number(v, f"{rpath}.{k}")
 
     return Config(mechanism_class=mech_cls, source=source, mechanism=mech_name, name=name, parameters=params,
@@ -256,3 +259,42 @@ def _check_design(r: Reader, mech_cls, design: dict, path: str) -> None:
     if problem:
         key, msg = problem
         r.fail(f"{path}.{key}" if key else path, msg)
+
+
+def _name(r: Reader, value: Any, path: str) -> str:
+    """A name that becomes part of a file or folder name (see optdesign.names)."""
+    r.string(value, path)
+    problem = name_problem(value)
+    if problem:
+        r.fail(path, f"{problem}, got {show(value)}")
+    return value
+
+
+#: free variables beyond which the corners of the bounds are not all checked (2^12 designs)
+_MAX_CORNER_VARS = 12
+
+
+def _check_corners(r: Reader, mech_cls, dvs: dict) -> None:
+    """The mechanism's geometry check at every corner of the box the bounds
+    span (the other variables at their values): bounds that contain
+    impossible designs are a mistake.  The checks the mechanisms declare are
+    linear in each variable (d < 2 r_a, h_o > -h_B), so their corners decide."""
+    free = [v for v in dvs.values() if v.bounds is not None and v.bounds[1] > v.bounds[0]]
+    if not free or len(free) > _MAX_CORNER_VARS:
+        return
+    base = {k: v.value for k, v in dvs.items()}
+    for corner in itertools.product(*(v.bounds for v in free)):
+        design = {**base, **{v.name: x for v, x in zip(free, corner)}}
+        problem = mech_cls.check_design(design)
+        if problem:
+            key, msg = problem
+            blamed = next((v for v in free if v.name == key), None)
+            if blamed is None:   # the hook names a fixed variable: blame the first free one it involves
+                blamed = next((v for v in free if v.name in msg), free[0])
+            at = ", ".join(f"{v.name} = {_display(v, x)}" for v, x in zip(free, corner))
+            r.fail(f"design_variables.{blamed.name}.bounds",
+                   f"the bounds hold impossible designs: at the corner {at}: {msg}")
+
+
+def _display(v: DesignVariable, x: float) -> str:
+    return f"{v.display(x):g}" + (f" {v.unit}" if v.unit else "")

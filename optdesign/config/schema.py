@@ -80,6 +80,8 @@ class Config:
     raw: dict
     #: the mechanism class (a registered one, or one built from a description)
     mechanism_class: Any = field(default=None, repr=False, compare=False)
+    #: the text of the file as read (None for a config built from a mapping)
+    text: str | None = field(default=None, repr=False, compare=False)
 
     @property
     def free_variables(self) -> list[DesignVariable]:
@@ -89,6 +91,26 @@ class Config:
         if name not in self.designs:
             raise ConfigError(self.source, "designs", f"no design named {name!r}; the config has {', '.join(self.designs) or 'none'}")
         return dict(self.designs[name])
+
+    def check_optimizable(self, pareto: bool = True) -> None:
+        """Raise ConfigError unless an optimization of this config can start: at
+        least one free design variable, and the workspace points times the
+        largest population within the evaluation limit (checked before a run
+        folder is made, so a rejected config leaves nothing on disk)."""
+        from ..workspace import MAX_POINTS, point_count
+
+        if not self.free_variables:
+            raise ConfigError(self.source, "design_variables",
+                              "no free design variable: give at least one 'bounds' with lower < upper")
+        n = point_count(self.workspace, tuple(self.mechanism_class.pose_names))
+        opt = self.optimizer
+        key, pop = "optimizer.population", opt.population
+        if pareto and opt.pareto_algorithms and opt.pareto_population > pop:
+            key, pop = "optimizer.pareto.population", opt.pareto_population
+        if n * pop > MAX_POINTS:
+            raise ConfigError(self.source, key, f"{pop:,} designs x {n:,} workspace points = {n * pop:,} evaluations "
+                                                f"per generation call; expected at most {MAX_POINTS:,} (a smaller "
+                                                "population or fewer workspace points)")
 
     def initial_design(self) -> dict[str, float]:
         return {k: v.value for k, v in self.design_variables.items()}

@@ -1,11 +1,10 @@
 """Parsing of the config's workspace and optimizer sections (see :mod:`.loader`)."""
 from __future__ import annotations
 
-import math
 from typing import Any
 
-from ..workspace import WorkspaceSpec
-from .reader import UNITS, Reader, show, tname
+from ..workspace import MAX_POINTS, WorkspaceSpec, point_count
+from .reader import UNITS, Reader, join, show, suggest, tname
 from .schema import OptimizerSpec
 
 __all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
@@ -19,16 +18,33 @@ OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "
             "checkpoint_interval"}
 
 
+def _workspace_unit(r: Reader, value: Any, axes: tuple[str, ...], mech_cls) -> str | None:
+    """The block's ``unit``: one every axis it applies to accepts (mm or m on
+    lengths, deg or rad on angles, none on plain numbers)."""
+    unit = r.unit(value, "workspace.unit")
+    if unit is None:
+        return None
+    wants = {"m": "length", "mm": "length", "rad": "angle", "deg": "angle"}[unit]
+    words = {"length": "a length", "angle": "an angle", "number": "a plain number"}
+    for a in axes:
+        kind = mech_cls.pose_kind(a)
+        if kind != wants:
+            ok = {"length": "m or mm", "angle": "rad or deg", "number": "no unit"}[kind]
+            r.fail("workspace.unit", f"{unit!r} is {words[wants]} unit, but axis {a} is {words[kind]}; expected {ok}")
+    return unit
+
+
 def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     path = "workspace"
     ws = r.mapping(ws, path)
     r.only(ws, path, WS_KEYS)
     wtype = r.string(ws.get("type", "box"), f"{path}.type", choices={"box", "cylinder"})
-    unit = r.unit(ws.get("unit"), f"{path}.unit")
-    scale = UNITS[unit]
-    axes_raw = r.mapping(r.require(ws, "axes", path), f"{path}.axes")
     names = tuple(mech_cls.pose_names)
+    axes_raw = r.mapping(r.require(ws, "axes", path), f"{path}.axes")
     r.only(axes_raw, f"{path}.axes", set(names))
+    used = names if wtype == "cylinder" else tuple(a for a in names if a in axes_raw)
+    unit = _workspace_unit(r, ws.get("unit"), used, mech_cls)
+    scale = UNITS[unit]
     axes: dict[str, tuple[float, float]] = {}
     for a in names:
         apath = f"{path}.axes.{a}"
@@ -45,6 +61,8 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     radius = None
     center = (0.0, 0.0)
     if wtype == "cylinder":
+        if len(names) != 3:
+            r.fail(f"{path}.type", f"a cylinder needs three pose axes; this mechanism has {len(names)} ({', '.join(names)})")
         radius = r.number(r.require(ws, "radius", path), f"{path}.radius", positive=True) * scale
         if "center" in ws:
             c = ws["center"]
@@ -54,28 +72,38 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         for a in names[:2]:
             if a in axes_raw:
                 r.fail(f"{path}.axes.{a}", "a cylinder takes its first two axes from radius and center; remove this axis")
+    elif "radius" in ws or "center" in ws:
+        key = "radius" if "radius" in ws else "center"
+        r.fail(f"{path}.{key}", f"'{key}' is for type: cylinder; a box takes its ranges from 'axes'")
     sampling = r.string(ws.get("sampling", "grid"), f"{path}.sampling", choices=SAMPLING)
     step = ppa = pts = None
     if sampling == "grid":
+        if "points" in ws:
+            r.fail(f"{path}.points", "'points' is for sampling sobol, halton, lhs or random; "
+                                     "a grid takes 'step' or 'points_per_axis'")
+        if "step" in ws and "points_per_axis" in ws:
+            r.fail(f"{path}.points_per_axis", "give 'step' or 'points_per_axis', not both")
         if "step" in ws:
             step = r.number(ws["step"], f"{path}.step", positive=True) * scale
+            if step <= 0:          # a subnormal step that the unit's factor took to zero
+                r.fail(f"{path}.step", f"step {show(ws['step'])} is too small to be a grid step")
         elif "points_per_axis" in ws:
-            ppa = r.integer(ws["points_per_axis"], f"{path}.points_per_axis", minimum=1, maximum=10_000)
+            ppa = r.integer(ws["points_per_axis"], f"{path}.points_per_axis", minimum=1, maximum=MAX_POINTS)
         else:
             r.fail(f"{path}.step", "a grid needs 'step' or 'points_per_axis'")
-        if step is not None:
-            total = 1
-            for lo, hi in axes.values():
-                total *= int(math.floor((hi - lo) / step + 1e-9)) + 1
-            if wtype == "cylinder":
-                total *= int(2 * radius / step + 1) ** 2
-            if total > 50_000_000:
-                r.fail(f"{path}.step", f"step {ws['step']} gives {show(total)} grid points; expected at most 50,000,000")
     else:
-        pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=50_000_000)
-    seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0)
-    return WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
+        for key in ("step", "points_per_axis"):
+            if key in ws:
+                r.fail(f"{path}.{key}", f"'{key}' is for sampling: grid; {sampling} sampling takes 'points'")
+        pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=MAX_POINTS)
+    seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0, maximum=2 ** 32 - 1)
+    spec = WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
                          points=pts, seed=seed, radius=radius, center=center, unit=unit)
+    n = point_count(spec, names)
+    if n > MAX_POINTS:
+        key = "step" if step is not None else "points_per_axis"
+        r.fail(f"{path}.{key}", f"{key} {show(ws[key])} gives {n:,} grid points; expected at most {MAX_POINTS:,}")
+    return spec
 
 
 def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -> OptimizerSpec:
@@ -107,7 +135,7 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         wm = r.mapping(opt["weights"], f"{path}.weights")
         for k, v in wm.items():
             if k not in indices:
-                r.fail(f"{path}.weights.{k}", f"unknown index; expected one of {', '.join(indices)}")
+                r.fail(join(f"{path}.weights", k), f"unknown index{suggest(k, indices)}; expected one of {', '.join(indices)}")
             weights[k] = r.number(v, f"{path}.weights.{k}", nonneg=True)
         if sum(weights.values()) <= 0:
             r.fail(f"{path}.weights", "expected at least one positive weight")

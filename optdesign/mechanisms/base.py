@@ -135,6 +135,12 @@ class Mechanism:
 
     # ------------------------------------------------------------------ config hooks
     @classmethod
+    def pose_kind(cls, axis: str) -> str:
+        """``angle``, ``number`` or ``length``: the kind of a pose axis (it decides
+        the units a workspace may give it)."""
+        return {"rad": "angle", "1": "number"}.get(cls.pose_unit(axis), "length")
+
+    @classmethod
     def check_design(cls, design: Mapping[str, float]) -> tuple[str, str] | None:
         """Return (key, message) if a design is geometrically impossible, else None."""
         return None

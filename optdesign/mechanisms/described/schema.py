@@ -82,8 +82,11 @@ def _mapping(v: Any, path: str) -> Mapping:
 def _only(m: Mapping, path: str, allowed, what: str = "key") -> None:
     for k in m:
         if k not in allowed:
-            close = difflib.get_close_matches(k, sorted(allowed), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f"; expected one of {', '.join(sorted(allowed))}"
+            close = difflib.get_close_matches(k, sorted(allowed), n=1) if isinstance(k, str) else []
+            if not close and isinstance(k, str):
+                low = {a.lower(): a for a in allowed}
+                close = [low[k.lower()]] if k.lower() in low else []
+            hint = (f"; did you mean {close[0]!r}?" if close else "") + f"; expected one of {', '.join(sorted(allowed))}"
             _fail(f"{path}.{k}", f"unknown {what}{hint}")
 
 

@@ -1,0 +1,62 @@
+"""Signals to a real ``optdesign batch`` process with two loky workers busy:
+it exits 130 (SIGINT) or 143 (SIGTERM) with one line, and no process of
+its process group is left behind (loky workers and their helpers included)."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import BATCH_SMALL, ROOT, edited_text
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:     # pragma: no cover - a process of another user in the group
+        return True
+    return True
+
+
+@pytest.mark.parametrize("sig, to_group, status", [(signal.SIGTERM, False, 143), (signal.SIGINT, True, 130)],
+                         ids=["SIGTERM to the batch", "SIGINT to its group"])
+def test_signal_stops_the_batch_and_its_workers(tmp_path, sig, to_group, status):
+    cfg = tmp_path / "slow.yaml"
+    cfg.write_text(edited_text(BATCH_SMALL.read_text(), {"generations: 5": "generations: 60"}))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "optdesign.cli", "batch", str(cfg), "--seeds", "2", "--jobs", "2",
+                             "--out", str(tmp_path / "runs")], cwd=tmp_path, env=env, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pgid = proc.pid
+    try:
+        t0 = time.monotonic()
+        while len(list((tmp_path / "runs").glob("*/stages/*"))) < 2:      # both workers inside a run
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() - t0 < 120, "the workers never started"
+            time.sleep(0.05)
+        (os.killpg if to_group else os.kill)(pgid, sig)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(pgid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == status, err
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith(f"optdesign: batch interrupted ({sig.name})"), err
+    assert "Traceback" not in err and len(lines) == 2, err        # the start line and the interruption line
+    t0 = time.monotonic()
+    while _group_alive(pgid):
+        if time.monotonic() - t0 > 20:
+            ps = subprocess.run(["ps", "-o", "pid,pgid,stat,cmd", "-g", str(pgid)], capture_output=True, text=True)
+            pytest.fail(f"processes left in the batch's group:\n{ps.stdout}")
+        time.sleep(0.1)
+    # the interrupted runs are resumable: their folders are there, unfinished
+    manifests = list(Path(tmp_path / "runs").glob("*/manifest.json"))
+    assert len(manifests) == 2
