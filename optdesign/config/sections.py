@@ -11,8 +11,18 @@ from .schema import OptimizerSpec
 __all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
 
 WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
-           "center", "unit"}
-SAMPLING = {"grid", "sobol", "halton", "lhs", "random"}
+           "center", "unit", "scramblings"}
+SAMPLING = {"grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random"}
+#: most points a workspace sample may have
+MAX_POINTS = 50_000_000
+#: keys that a sampling does not take (a mistake to give)
+_NOT_FOR = {
+    "gauss": {"step": "a Gauss rule places points_per_axis nodes per axis",
+              "points": "a Gauss rule places points_per_axis nodes per axis",
+              "seed": "a Gauss rule is not random", "scramblings": "only rqmc sampling is scrambled"},
+    "rqmc": {"step": "rqmc places 'points' Sobol points per scrambling",
+             "points_per_axis": "rqmc places 'points' Sobol points per scrambling"},
+}
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "normalization", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission",
@@ -55,8 +65,31 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             if a in axes_raw:
                 r.fail(f"{path}.axes.{a}", "a cylinder takes its first two axes from radius and center; remove this axis")
     sampling = r.string(ws.get("sampling", "grid"), f"{path}.sampling", choices=SAMPLING)
+    for key, why in _NOT_FOR.get(sampling, {}).items():
+        if key in ws:
+            r.fail(f"{path}.{key}", f"not used by sampling '{sampling}' ({why}); remove it")
+    if "scramblings" in ws and sampling != "rqmc":
+        r.fail(f"{path}.scramblings", f"only sampling 'rqmc' takes scramblings, not '{sampling}'")
     step = ppa = pts = None
-    if sampling == "grid":
+    scramblings = 8
+    free = sum(1 for lo, hi in axes.values() if hi > lo)
+    if sampling == "gauss":
+        ppa = r.integer(r.require(ws, "points_per_axis", path), f"{path}.points_per_axis", minimum=2, maximum=10_000)
+        total = (2 * ppa ** (free + 2)) if wtype == "cylinder" else ppa ** free
+        if total > MAX_POINTS:
+            r.fail(f"{path}.points_per_axis", f"{ppa} nodes per axis give {show(total)} points; expected at most 50,000,000")
+    elif sampling == "rqmc":
+        pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=2, maximum=MAX_POINTS)
+        if pts & (pts - 1):
+            lo2 = 1 << (pts.bit_length() - 1)
+            r.fail(f"{path}.points", f"expected a power of 2 (a Sobol set is balanced in blocks of 2^m), "
+                                     f"got {pts}; use {lo2} or {2 * lo2}")
+        if "scramblings" in ws:
+            scramblings = r.integer(ws["scramblings"], f"{path}.scramblings", minimum=2, maximum=1024)
+        if pts * scramblings > MAX_POINTS:
+            r.fail(f"{path}.points", f"{pts} points x {scramblings} scramblings give {show(pts * scramblings)} points; "
+                                     "expected at most 50,000,000")
+    elif sampling == "grid":
         if "step" in ws:
             step = r.number(ws["step"], f"{path}.step", positive=True) * scale
         elif "points_per_axis" in ws:
@@ -75,7 +108,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=50_000_000)
     seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0)
     return WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
-                         points=pts, seed=seed, radius=radius, center=center, unit=unit)
+                         points=pts, seed=seed, radius=radius, center=center, unit=unit, scramblings=scramblings)
 
 
 def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -> OptimizerSpec:
