@@ -16,8 +16,8 @@ def register(sub):
 
 
 def comparison_rows(cfg, results: dict) -> list[list[str]]:
-    """Rows: design, index, mean, its error estimate (±, the index's units),
-    min, max, paper value, relative difference."""
+    """Rows: design, index, mean, ± its error estimate (the index's units),
+    paper value, relative difference."""
     from ..tables import fmt, fmt_g
 
     rows = []
@@ -28,10 +28,18 @@ def comparison_rows(cfg, results: dict) -> list[list[str]]:
             paper = ref.get(iname)
             rel = (v["mean"] - paper) / paper if paper else None
             err = rec.get("global_indices_error", {}).get(iname)
-            rows.append([dname, iname, fmt(v["mean"]), fmt_g(err, 2) if err is not None else "-", fmt(v["min"]), fmt(v["max"]),
+            rows.append([dname, iname, fmt(v["mean"]), fmt_g(err, 2) if err is not None else "-",
                          fmt(paper) if paper is not None else "-",
                          f"{100 * rel:+.2f}%" if rel is not None else "-"])
     return rows
+
+
+def spread_rows(cfg, results: dict) -> list[list[str]]:
+    """Rows: design, index, min, max and standard deviation over the points of W."""
+    from ..tables import fmt
+
+    return [[d, k, fmt(rec[k]["min"]), fmt(rec[k]["max"]), fmt(rec[k]["std"])]
+            for d, rec in results.items() for k in cfg.indices]
 
 
 def run(args) -> int:
@@ -57,8 +65,10 @@ def run(args) -> int:
         print(json.dumps(out, indent=2, allow_nan=True))
         return 0
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
-    print(f"± : error estimate of the mean against the integral over W ({error_method(ws)})")
-    print(table(["design", "index", "mean", "±", "min", "max", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
+    print(table(["design", "index", "mean", "±", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    print()
+    print(table(["design", "index", "min over W", "max over W", "std over W"], spread_rows(cfg, res)))
     print()
     print(table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()]))
     return 0
