@@ -45,7 +45,7 @@ def write_atlas(cfg: Config, design: str, out_dir: str | os.PathLike, resolution
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ws = atlas_plane(cfg, resolution, fixed)
-    ev = evaluate(cfg, [cfg.design(design)], ws, keep_local=True)
+    ev = evaluate(cfg, [cfg.design(design)], ws, keep_local=True, errors=False)
     names = ws.names
     lines = [",".join(list(names) + ["reachable"] + list(cfg.indices))]
     for j in range(ws.n):
