@@ -252,6 +252,7 @@ def summarize(data: dict) -> str:
     lines = [f"budget: {data['budget']} evaluations per run, {data['seeds']} seeds; "
              f"target: f - f* <= {TARGET:g} max(|f*|, 1)", ""]
     ranks = {a: {"test": [], "design": []} for a in algs}
+    matrix = {"best": [], "evals": []}
     solved = {a: {"test": 0, "design": 0} for a in algs}
     for spec in data["problems"]:
         key = spec["key"]
@@ -261,7 +262,8 @@ def summarize(data: dict) -> str:
         fstar = min([r["best"] for r in rs] + [spec.get("best_known", np.inf), spec.get("scan_best", np.inf)])
         level = _target(fstar)
         rows, meds = [], {}
-        for a in algs:
+        present = [a for a in algs if any(r["algorithm"] == a for r in rs)]
+        for a in present:
             ra = [r for r in rs if r["algorithm"] == a]
             b = np.array([r["best"] for r in ra])
             q1, med, q3 = np.percentile(b, [25, 50, 75])
@@ -271,19 +273,34 @@ def summarize(data: dict) -> str:
             solved[a][spec["kind"]] += len(hits)
             rows.append([a, fmt_g(float(med), 7), fmt_g(float(q1), 7), fmt_g(float(q3), 7), f"{len(hits)}/{len(ra)}",
                          str(int(np.median(hits))) if hits else "-"])
-        order = sorted(algs, key=lambda a: meds[a])
-        for a in algs:   # ties share the mean rank
-            tied = [i + 1 for i, b in enumerate(order) if meds[b] == meds[a]]
+        # ranks by the median, every median within the target counted as equal
+        key_of = {a: max(meds[a], level) for a in present}
+        order = sorted(present, key=lambda a: key_of[a])
+        for a in present:   # ties share the mean rank
+            tied = [i + 1 for i, b in enumerate(order) if key_of[b] == key_of[a]]
             ranks[a][spec["kind"]].append(float(np.mean(tied)))
+        cell = {r[0]: r for r in rows}
+        scale = max(abs(fstar), 1.0)
+        matrix["best"].append([key, fmt_g(fstar, 7)] + [f"{(meds[a] - fstar) / scale:.1e} ({cell[a][4].split('/')[0]})"
+                                                        if a in cell else "-" for a in algs])
+        matrix["evals"].append([key] + [cell[a][5] if a in cell else "-" for a in algs])
         lines.append(f"{key}   (f* = {fmt_g(fstar, 8)})")
         lines.append(table(["algorithm", "median", "q1", "q3", "reached", "evals to reach"], rows))
         lines.append("")
+    lines.append("Gap of the median best value to f*, (median - f*) / max(|f*|, 1), and (in brackets) the runs "
+                 "that reached the target:")
+    lines.append(table(["problem", "f*"] + algs, matrix["best"]))
+    lines.append("")
+    lines.append("Median evaluations to reach the target (over the runs that reached it; - : none did):")
+    lines.append(table(["problem"] + algs, matrix["evals"]))
+    lines.append("")
     rows = []
     for a in algs:
         rows.append([a, f"{np.mean(ranks[a]['test']):.2f}" if ranks[a]["test"] else "-",
                      f"{np.mean(ranks[a]['design']):.2f}" if ranks[a]["design"] else "-",
                      str(solved[a]["test"]), str(solved[a]["design"])])
-    lines.append("Mean rank of the median best (1 = best; ties share the rank) and runs that reached the target:")
+    lines.append("Mean rank of the median best (1 = best; ties share the rank, and every median within the target "
+                 "ties) and runs that reached the target:")
     lines.append(table(["algorithm", "rank, test problems", "rank, design problems", "reached, test",
                         "reached, design"], rows))
     return "\n".join(lines)
