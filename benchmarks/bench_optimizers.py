@@ -224,7 +224,8 @@ def problem_specs(quick: bool) -> list[dict]:
             terms = [terms[0], terms[-1]]
         for label, term in terms:
             s = {"key": f"{cfg.name}: {label}", "kind": "design", "config": path, "term": list(term),
-                 "lo": scan["lo"], "hi": scan["hi"]}
+                 "lo": scan["lo"], "hi": scan["hi"],
+                 "sense": cfg.indices[term[1]].sense if term[0] == "index" else None}
             if term[0] == "index":
                 v = scan["lo"][term[1]] if term[2] > 0 else -scan["hi"][term[1]]
                 s["scan_best"] = v
@@ -244,6 +245,23 @@ def _first_reach(trace, level):
     return None
 
 
+def role(spec: dict) -> str:
+    """``test`` (pymoo's problems), ``optimum`` (a design problem asking for an
+    index's best value, or the weighted sum) or ``extreme`` (an index's worst
+    feasible value: the other end of the normalization)."""
+    if spec["kind"] == "test":
+        return "test"
+    term = spec["term"]
+    if term[0] != "index":
+        return "optimum"
+    if "sense" not in spec:
+        from optdesign.config import load_config
+
+        spec["sense"] = load_config(ROOT / spec["config"]).indices[term[1]].sense
+    minimize = term[2] > 0
+    return "optimum" if minimize == (spec["sense"] == "min") else "extreme"
+
+
 def summarize(data: dict) -> str:
     from optdesign.tables import fmt_g, table
 
@@ -251,9 +269,10 @@ def summarize(data: dict) -> str:
     algs = [a for a in ALGORITHMS if any(r["algorithm"] == a for r in runs)]
     lines = [f"budget: {data['budget']} evaluations per run, {data['seeds']} seeds; "
              f"target: f - f* <= {TARGET:g} max(|f*|, 1)", ""]
-    ranks = {a: {"test": [], "design": []} for a in algs}
+    groups = ("test", "optimum", "extreme")
+    ranks = {a: {g: [] for g in groups} for a in algs}
     matrix = {"best": [], "evals": []}
-    solved = {a: {"test": 0, "design": 0} for a in algs}
+    solved = {a: {g: 0 for g in groups} for a in algs}
     for spec in data["problems"]:
         key = spec["key"]
         rs = [r for r in runs if r["problem"] == key]
@@ -270,7 +289,7 @@ def summarize(data: dict) -> str:
             meds[a] = med
             hits = [_first_reach(r["trace"], level) for r in ra]
             hits = [h for h in hits if h is not None]
-            solved[a][spec["kind"]] += len(hits)
+            solved[a][role(spec)] += len(hits)
             rows.append([a, fmt_g(float(med), 7), fmt_g(float(q1), 7), fmt_g(float(q3), 7), f"{len(hits)}/{len(ra)}",
                          str(int(np.median(hits))) if hits else "-"])
         # ranks by the median, every median within the target counted as equal
@@ -278,7 +297,7 @@ def summarize(data: dict) -> str:
         order = sorted(present, key=lambda a: key_of[a])
         for a in present:   # ties share the mean rank
             tied = [i + 1 for i, b in enumerate(order) if key_of[b] == key_of[a]]
-            ranks[a][spec["kind"]].append(float(np.mean(tied)))
+            ranks[a][role(spec)].append(float(np.mean(tied)))
         cell = {r[0]: r for r in rows}
         scale = max(abs(fstar), 1.0)
         matrix["best"].append([key, fmt_g(fstar, 7)] + [f"{(meds[a] - fstar) / scale:.1e} ({cell[a][4].split('/')[0]})"
@@ -296,13 +315,16 @@ def summarize(data: dict) -> str:
     lines.append("")
     rows = []
     for a in algs:
-        rows.append([a, f"{np.mean(ranks[a]['test']):.2f}" if ranks[a]["test"] else "-",
-                     f"{np.mean(ranks[a]['design']):.2f}" if ranks[a]["design"] else "-",
-                     str(solved[a]["test"]), str(solved[a]["design"])])
+        rows.append([a] + [f"{np.mean(ranks[a][g]):.2f}" if ranks[a][g] else "-" for g in groups]
+                    + [str(solved[a][g]) for g in groups])
     lines.append("Mean rank of the median best (1 = best; ties share the rank, and every median within the target "
                  "ties) and runs that reached the target:")
-    lines.append(table(["algorithm", "rank, test problems", "rank, design problems", "reached, test",
-                        "reached, design"], rows))
+    n = {g: sum(1 for sp in data["problems"] if role(sp) == g) for g in groups}
+    lines.append(f"(test: pymoo's {n['test']} problems; optimum: the {n['optimum']} design problems that ask for "
+                 f"an index's best value or the weighted sum; extreme: the {n['extreme']} that ask for an index's "
+                 "worst feasible value, the other end of the normalization)")
+    lines.append(table(["algorithm", "rank: test", "rank: optimum", "rank: extreme", "reached: test",
+                        "reached: optimum", "reached: extreme"], rows))
     return "\n".join(lines)
 
 
