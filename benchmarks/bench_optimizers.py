@@ -127,8 +127,6 @@ def _test_problem(name: str, n_var: int):
 
 
 def _design_terms(cfg):
-    from optdesign.optimize.problem import Term, weighted_sum_term  # noqa: F401
-
     out = []
     for k in cfg.indices:
         out.append((f"min {k}", ("index", k, 1.0)))
