@@ -52,7 +52,7 @@ def write_atlas(cfg: Config, design: str, out_dir: str | os.PathLike, resolution
     nothing is written before the atlas is computed."""
     out = Path(out_dir)
     ws = atlas_plane(cfg, resolution, fixed)
-    ev = evaluate(cfg, [cfg.design(design)], ws, keep_local=True)
+    ev = evaluate(cfg, [cfg.design(design)], ws, keep_local=True, errors=False)
     if root is not None:
         check_inside(root, out)
         for k in cfg.indices:

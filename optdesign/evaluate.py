@@ -3,8 +3,13 @@ mechanisms from a config (config -> mechanism -> workspace -> local indices ->
 means over W), vectorized over a population.
 
 * :func:`evaluate` — global statistics (mean, min, max, std) of the config's
-  indices for D designs; the mechanism's compiled path answers when it has one
-  (``Mechanism.global_statistics``), the numpy path otherwise;
+  indices for D designs, and the error estimate of each mean against the
+  integral of eq. 29 (the workspace's :class:`~optdesign.workspace.ErrorRule`);
+  the mechanism's compiled path answers when it has one
+  (``Mechanism.global_statistics``, or ``Mechanism.local_values`` for
+  weighted rules), the numpy path otherwise;
+* :func:`global_indices_error` — the error estimates of named or given designs
+  as plain floats (for ``results.json``'s ``global_indices_error``);
 * :class:`Evaluator` — what the optimizer calls: design vectors (D, n_var) ->
   index values, extra objectives and constraint quantities, all from one
   :func:`evaluate` pass per population; after construction it holds no config;
@@ -18,13 +23,13 @@ from typing import Mapping
 import numpy as np
 
 from .config import Config, ConfigError
-from .indices import INDEX_KINDS, global_summary, local_index
+from .indices import INDEX_KINDS, global_summary, local_index, weighted_summary
 from .mechanisms import Mechanism, get
 from .mechanisms.base import IndexRequest
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 
 __all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests", "check_size"]
+           "index_requests", "check_size", "global_indices_error", "error_method"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -73,7 +78,11 @@ class Evaluation:
     """Global (and optionally local) index values of D designs over N points.
 
     ``summary[index]`` maps ``mean``/``min``/``max``/``std``/``count`` to arrays
-    (D,), ``reachable_fraction`` is (D,), ``local[index]`` (D, N) if kept.
+    (D,), ``reachable_fraction`` is (D,) (the weighted share of W the
+    reachable points stand for), ``local[index]`` (D, N) if kept,
+    ``error[index]`` (D,) the estimated error of the mean against the integral
+    mean over W, in the index's units (``error_method`` says how; NaN where it
+    cannot be estimated; None when not asked for).
     """
 
     summary: dict[str, dict[str, np.ndarray]]
@@ -81,6 +90,8 @@ class Evaluation:
     reachable_fraction: np.ndarray  # (D,)
     local: dict[str, np.ndarray] | None
     workspace: Workspace
+    error: dict[str, np.ndarray] | None = None
+    error_method: str = ""
 
 
 def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
@@ -99,11 +110,40 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
     return full
 
 
-def _statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool):
+def _local_values(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int):
+    """(local values {name: (D, N)}, reachable (D, N)): the mechanism's compiled
+    local values when it has them, else the numpy path."""
+    fast = mech.local_values(requests, X)
+    if fast is not None:
+        vals, reach = fast
+        return {k: np.broadcast_to(v, (D, X.shape[0])) for k, v in vals.items()}, np.broadcast_to(reach, (D, X.shape[0]))
+    needs = {INDEX_KINDS[r.kind].needs for r in requests}
+    with np.errstate(all="ignore"):
+        reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
+        mats = mech.index_matrices(X, needs)
+        vals = {r.name: np.broadcast_to(local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
+                                                    options=r.option_dict()), reach.shape) for r in requests}
+    return vals, reach
+
+
+def _weighted_statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool,
+                         weights: np.ndarray):
+    vals, reach = _local_values(mech, X, requests, D)
+    with np.errstate(all="ignore"):
+        summary = {k: weighted_summary(v, reach, weights) for k, v in vals.items()}
+        local = {k: np.where(reach, v, np.nan) for k, v in vals.items()} if keep_local else None
+    return summary, reach, local
+
+
+def _statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D: int, keep_local: bool,
+                weights: np.ndarray | None = None):
     """(summary, reachable (D, N), local or None): the compiled path's answer
     for the requests it computes (never when local values are kept), the numpy
     path for the others (with the compiled path's reachable mask, which equals
-    the numpy model's bitwise)."""
+    the numpy model's bitwise); with ``weights`` (N,) the weighted quadrature
+    of the local values."""
+    if weights is not None:
+        return _weighted_statistics(mech, X, requests, D, keep_local, weights)
     reach = None
     if not keep_local:
         fast = mech.global_statistics(requests, X)
@@ -139,35 +179,86 @@ def _evaluate(cls: type[Mechanism], fixed: Mapping[str, float], full: dict[str, 
               requests: list[IndexRequest], keep_local: bool = False):
     D = len(next(iter(full.values())))
     mech = cls(**{**fixed, **{k: v[:, None] for k, v in full.items()}})
-    summary, reach, local = _statistics(mech, ws.X, requests, D, keep_local)
+    summary, reach, local = _statistics(mech, ws.X, requests, D, keep_local, ws.weights)
     return mech, summary, reach, local
 
 
+def _errors(mech: Mechanism, ws: Workspace, requests: list[IndexRequest], D: int, summary: dict) -> dict:
+    """The error estimate (D,) of each mean of ``summary`` by the workspace's
+    error rule (see :class:`~optdesign.workspace.ErrorRule`)."""
+    rule = ws.error_rule
+    names = [r.name for r in requests]
+    if rule is None:
+        return {k: np.full(D, np.nan) for k in names}
+    if rule.method == "sample":
+        out = {}
+        for k in names:
+            s = summary[k]
+            with np.errstate(all="ignore"):
+                out[k] = np.where(s["count"] > 1, s["std"] / np.sqrt(s["count"]), np.nan)
+        return out
+    means = [_statistics(mech, r.X, requests, D, False, r.weights)[0] for r in rule.rules]
+    out = {}
+    with np.errstate(all="ignore"):
+        for k in names:
+            q = summary[k]["mean"]
+            if rule.method == "scramblings":
+                qs = np.stack([m[k]["mean"] for m in means])
+                e = np.std(qs, axis=0, ddof=1) / np.sqrt(len(means))
+            else:
+                e = rule.factor * np.abs(q - means[0][k]["mean"])
+            out[k] = np.where(np.isfinite(q) & np.isfinite(e), e, np.nan)
+    return out
+
+
 def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_local: bool = False,
-             index_names=None) -> Evaluation:
+             index_names=None, errors: bool = True) -> Evaluation:
     """Evaluate a population: ``designs`` maps parameter names to arrays (D,)
-    (missing ones take their config value) or is a list of mappings."""
+    (missing ones take their config value) or is a list of mappings.  With
+    ``errors`` (default) each mean also gets its error estimate (an extra
+    pass over the points of the workspace's error rule)."""
     ws = workspace if workspace is not None else workspace_of(config)
     full = _stack_designs(config, designs)
     try:
         check_size(ws.n, len(next(iter(full.values()))))
     except WorkspaceTooLarge as exc:
         raise ConfigError(config.source, "workspace", str(exc)) from None
-    _, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws,
-                                         index_requests(config, index_names), keep_local)
-    return Evaluation(summary, reach, reach.mean(axis=-1), local, ws)
+    requests = index_requests(config, index_names)
+    mech, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws, requests, keep_local)
+    err = _errors(mech, ws, requests, reach.shape[0], summary) if errors else None
+    return Evaluation(summary, reach, ws.fraction(reach), local, ws, err, error_method(ws))
+
+
+def error_method(workspace: Workspace) -> str:
+    """One line saying how the workspace's global indices get their error estimate."""
+    rule = workspace.error_rule
+    return rule.description if rule is not None else "no error estimate"
 
 
 def evaluate_named(config: Config, names=None, workspace: Workspace | None = None) -> dict[str, dict]:
-    """Global indices of named designs as plain floats (for tables and JSON)."""
+    """Global indices of named designs as plain floats (for tables and JSON);
+    ``global_indices_error`` holds each mean's error estimate."""
     names = list(names) if names else list(config.designs)
     ev = evaluate(config, [config.design(n) for n in names], workspace)
     out = {}
     for i, n in enumerate(names):
         rec = {k: {s: float(v[s][i]) for s in ("mean", "min", "max", "std")} for k, v in ev.summary.items()}
         rec["reachable_fraction"] = float(ev.reachable_fraction[i])
+        rec["global_indices_error"] = {k: float(v[i]) for k, v in ev.error.items()}
         out[n] = rec
     return out
+
+
+def global_indices_error(config: Config, designs, workspace: Workspace | None = None) -> list[dict[str, float]]:
+    """For each design (a list of parameter mappings, or a mapping of arrays
+    (D,), as :func:`evaluate` takes), the error estimate of every global index
+    ``{index: float}`` in the index's units: what ``results.json`` records as
+    ``global_indices_error`` beside ``global_indices`` (same keys).  The
+    workspace defaults to the config's; :func:`error_method` says how the
+    estimate is made."""
+    ev = evaluate(config, designs, workspace)
+    D = ev.reachable.shape[0]
+    return [{k: float(ev.error[k][i]) for k in config.indices} for i in range(D)]
 
 
 class Evaluator:
@@ -255,7 +346,7 @@ class Evaluator:
         check_size(self.workspace.n, np.atleast_2d(X).shape[0])
         designs = self.designs(X)
         mech, summary, reach, _ = _evaluate(self.mechanism, self.fixed, designs, self.workspace, self.requests_all)
-        frac = reach.mean(axis=-1)
+        frac = self.workspace.fraction(reach)
         vals = {k: summary[k]["mean"] for k in self.index_names}
         if self._cond is not None:
             cmax = summary[self._cond]["max"]

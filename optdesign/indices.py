@@ -36,7 +36,7 @@ from .linalg import (cond_2, cond_2_of, cond_fro, cond_fro_of, finite_stack, sig
                      sigma_min, sigma_min_of, singular_values)
 
 __all__ = [
-    "IndexKind", "INDEX_KINDS", "local_index", "global_summary",
+    "IndexKind", "INDEX_KINDS", "local_index", "global_summary", "weighted_summary",
     "sigma_max", "sigma_min", "cond_fro", "cond_2",
 ]
 
@@ -147,5 +147,32 @@ def global_summary(values: np.ndarray, mask: np.ndarray | None = None, axis: int
         "min": np.where(empty, np.nan, vmin),
         "max": np.where(empty, np.nan, vmax),
         "std": np.where(empty, np.nan, np.sqrt(var)),
+        "count": cnt,
+    }
+
+
+def weighted_summary(values: np.ndarray, mask: np.ndarray, weights: np.ndarray) -> dict[str, np.ndarray]:
+    """The global index as a quadrature of eq. 29 over the reachable part of W:
+    ``mean = sum_reach w sigma / sum_reach w`` with the rule's weights (N,)
+    along the last axis, the weighted standard deviation, min and max over the
+    reachable points, their ``count``.  Where every point is reachable the
+    mean is the rule's integral mean over W; otherwise it is the mean over the
+    reachable part (a region with a jump in the integrand, where a quadrature
+    converges slowly).  A design with no reachable point gets NaN."""
+    v = np.asarray(values, dtype=float)
+    mask = np.broadcast_to(mask, v.shape)
+    wm = np.where(mask, np.asarray(weights, dtype=float), 0.0)
+    total = np.sum(wm, axis=-1)
+    cnt = np.sum(mask, axis=-1)
+    vz = np.where(mask, v, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.sum(wm * vz, axis=-1) / total
+        var = np.sum(wm * np.where(mask, (v - mean[..., None]) ** 2, 0.0), axis=-1) / total
+    empty = cnt == 0
+    return {
+        "mean": np.where(empty, np.nan, mean),
+        "min": np.where(empty, np.nan, np.min(np.where(mask, v, np.inf), axis=-1)),
+        "max": np.where(empty, np.nan, np.max(np.where(mask, v, -np.inf), axis=-1)),
+        "std": np.where(empty, np.nan, np.sqrt(np.maximum(var, 0.0))),
         "count": cnt,
     }

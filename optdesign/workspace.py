@@ -1,11 +1,22 @@
-"""The workspace W: sampled points of the task space.
+"""The workspace W: sampled points of the task space, as quadratures of the
+integral mean over W (eq. 29: int_W sigma dW / int_W dW).
 
 Regions: a ``box`` over the pose axes (an axis with lower == upper is fixed, so
 a box with a fixed z is the plane at fixed height of the paper) and a
 ``cylinder`` (a disc of ``radius`` around ``center`` in the first two axes,
-times a range or a value on the third).  Points on a grid (``step`` or
-``points_per_axis``) or quasi-random (scipy.stats.qmc Sobol, Halton, Latin
-hypercube; seeded) or pseudo-random (numpy, seeded).
+times a range or a value on the third).  Points
+
+* on a ``grid`` (``step`` or ``points_per_axis``; every point the same weight);
+* ``gauss``: tensor Gauss-Legendre nodes and weights (``points_per_axis`` per
+  free axis; for a cylinder Gauss-Legendre in the radius with the Jacobian r,
+  ``2 points_per_axis`` equally spaced angles, Gauss-Legendre in the height);
+* ``rqmc``: ``scramblings`` independently scrambled Sobol sets of ``points``
+  each (seeded), every point the same weight;
+* quasi-random (scipy.stats.qmc Sobol, Halton, Latin hypercube; seeded) or
+  pseudo-random (numpy, seeded).
+
+Each sample carries an :class:`ErrorRule`, how the error of its mean against
+the integral is estimated (see :func:`sample`).
 """
 from __future__ import annotations
 
@@ -14,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["WorkspaceSpec", "Workspace", "sample", "point_count", "MAX_POINTS", "WorkspaceTooLarge"]
+__all__ = ["WorkspaceSpec", "Workspace", "Rule", "ErrorRule", "sample", "gauss_legendre", "point_count",
+           "MAX_POINTS", "WorkspaceTooLarge"]
 
 #: the most workspace points of a spec, and the most (point, design) pairs of
 #: one evaluation call (the numpy path needs about 250-500 bytes per pair,
@@ -48,20 +60,70 @@ class WorkspaceSpec:
     radius: float | None = None
     center: tuple[float, float] = (0.0, 0.0)
     unit: str | None = None
+    scramblings: int = 8
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A quadrature of the integral mean over W: points ``X`` (M, dof) and
+    weights (M,) summing to 1 (``None``: every point 1/M, the plain mean)."""
+
+    X: np.ndarray
+    weights: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class ErrorRule:
+    """How the error of a sample's mean against the integral is estimated.
+
+    ``method``:
+
+    * ``subgrid`` (grids): ``factor * |Q - Q_c|`` with Q_c the plain mean over
+      the sub-grid of every second point along each free axis (``rules[0]``);
+      the plain mean of a grid is a first-order rule (its error is about
+      c / n per axis, n points), and ``factor = n_c / (n - n_c)`` (the
+      largest over the free axes) is the Richardson extrapolation of that
+      error from the two grids;
+    * ``coarse`` (gauss): ``|Q_n - Q_(n-1)|``, the difference to the rule of
+      one node fewer per axis (``rules[0]``, its own points);
+    * ``scramblings`` (rqmc): the standard error of the mean over the S
+      scramblings, ``std(Q_s, ddof=1) / sqrt(S)`` (``rules``: the S sets,
+      whose union is the sample);
+    * ``sample`` (sobol, halton, lhs, random): ``std / sqrt(count)``, the
+      Monte Carlo standard error (exact for random points; for one
+      quasi-random set it overstates the error, which it cannot estimate).
+    """
+
+    method: str
+    rules: tuple[Rule, ...] = ()
+    factor: float = 1.0
+    description: str = ""
 
 
 @dataclass
 class Workspace:
-    """Sampled workspace points ``X`` (N, dof) and the spec they came from."""
+    """Sampled workspace points ``X`` (N, dof) and the spec they came from.
+
+    ``weights`` (N,) sum to 1 (``None``: the plain mean, every point 1/N);
+    ``error_rule`` says how the mean's error is estimated."""
 
     spec: WorkspaceSpec
     names: tuple[str, ...]
     X: np.ndarray
     grid_shape: tuple[int, ...] | None = None  # for grids: points per free axis
+    weights: np.ndarray | None = None
+    error_rule: ErrorRule | None = None
 
     @property
     def n(self) -> int:
         return self.X.shape[0]
+
+    def fraction(self, mask: np.ndarray) -> np.ndarray:
+        """The weighted share of the points in ``mask`` (..., N): the share of
+        W they stand for (the plain share for unweighted samples)."""
+        if self.weights is None:
+            return mask.mean(axis=-1)
+        return mask @ self.weights
 
     def free_axes(self) -> list[str]:
         if self.spec.type == "cylinder":
@@ -78,7 +140,14 @@ class Workspace:
             if a in s.axes:
                 lo, hi = s.axes[a]
                 parts.append(f"{a}={lo:g}" if lo == hi else f"{a} in [{lo:g}, {hi:g}]")
-        how = f"grid step {s.step:g}" if s.step else (f"grid {s.points_per_axis}/axis" if s.sampling == "grid" else f"{s.sampling} {s.points} pts seed {s.seed}")
+        if s.sampling == "grid":
+            how = f"grid step {s.step:g}" if s.step else f"grid {s.points_per_axis}/axis"
+        elif s.sampling == "gauss":
+            how = f"Gauss-Legendre {s.points_per_axis}/axis"
+        elif s.sampling == "rqmc":
+            how = f"rqmc {s.points} pts x {s.scramblings} scramblings seed {s.seed}"
+        else:
+            how = f"{s.sampling} {s.points} pts seed {s.seed}"
         return f"{s.type}: " + ", ".join(parts) + f"; {how}; {self.n} points"
 
 
@@ -95,6 +164,12 @@ def _axis_count(lo: float, hi: float, step: float | None, count: int | None) -> 
 def point_count(spec: WorkspaceSpec, names: tuple[str, ...]) -> int:
     """The number of points :func:`sample` allocates for ``spec`` (for a
     cylinder grid: the square grid before the disc is cut from it)."""
+    if spec.sampling == "gauss":
+        free = sum(1 for a in names if a in spec.axes and spec.axes[a][1] > spec.axes[a][0])
+        n = spec.points_per_axis
+        return 2 * n ** (free + 2) if spec.type == "cylinder" else n ** free
+    if spec.sampling == "rqmc":
+        return int(spec.points) * int(spec.scramblings)
     if spec.sampling != "grid":
         return int(spec.points)
     if spec.type == "box":
@@ -137,6 +212,88 @@ def _unit_samples(kind: str, n: int, dim: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).random((n, dim))
 
 
+def gauss_legendre(n: int, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes (n,) on [lo, hi] and weights (n,) summing to 1
+    (the rule of the mean over the interval; exact for polynomials of degree
+    2n - 1).  A fixed axis (lo == hi) is one node of weight 1."""
+    if hi == lo:
+        return np.array([lo]), np.array([1.0])
+    t, w = np.polynomial.legendre.leggauss(n)
+    return lo + 0.5 * (hi - lo) * (t + 1.0), 0.5 * w
+
+
+def _tensor(nodes: list[np.ndarray], weights: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Tensor-product rule: points (prod n_i, k) in 'ij' order, weights their products."""
+    mesh = np.meshgrid(*nodes, indexing="ij")
+    wmesh = np.meshgrid(*weights, indexing="ij")
+    X = np.stack([g.ravel() for g in mesh], axis=-1)
+    w = np.prod(np.stack([g.ravel() for g in wmesh], axis=0), axis=0)
+    return X, w
+
+
+def _gauss_box(ranges, n: int) -> tuple[np.ndarray, np.ndarray]:
+    nodes, weights = zip(*(gauss_legendre(n, lo, hi) for lo, hi in ranges))
+    return _tensor(list(nodes), list(weights))
+
+
+def _gauss_cylinder(r: float, center, range3, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mean over the disc of radius r (times the third axis): Gauss-Legendre
+    in the radius with the Jacobian r (weights w_i r_i / R), 2n equally spaced
+    angles (the trapezoid rule, exact for trigonometric polynomials of degree
+    < 2n), Gauss-Legendre in the height.  Exact for polynomials of the pose of
+    degree <= 2n - 2 in (x, y) and 2n - 1 in the height."""
+    rho, wr = gauss_legendre(n, 0.0, r)
+    wr = wr * rho / (0.5 * r)                  # the Jacobian, normalized: sum(wr) = 1
+    m = 2 * n
+    ang = 2.0 * np.pi * (np.arange(m) + 0.5) / m
+    z, wz = gauss_legendre(n, *range3)
+    R, A, Z = np.meshgrid(rho, ang, z, indexing="ij")
+    WR, WA, WZ = np.meshgrid(wr, np.full(m, 1.0 / m), wz, indexing="ij")
+    X = np.stack([center[0] + (R * np.cos(A)).ravel(), center[1] + (R * np.sin(A)).ravel(), Z.ravel()], axis=-1)
+    return X, (WR * WA * WZ).ravel()
+
+
+def _sobol_sets(dim: int, m: int, scramblings: int, seed: int) -> np.ndarray:
+    """``scramblings`` independently scrambled Sobol sets of 2^m points in
+    [0, 1)^dim, (S, 2^m, dim), from child seeds of ``seed``."""
+    if dim == 0:
+        return np.zeros((scramblings, 2 ** m, 0))
+    from scipy.stats import qmc
+
+    kids = np.random.SeedSequence(seed).spawn(scramblings)
+    return np.stack([qmc.Sobol(d=dim, scramble=True, seed=np.random.default_rng(k)).random_base2(m) for k in kids])
+
+
+def _richardson(counts) -> float:
+    """Factor n_c / (n - n_c) of a first-order rule from n points and the n_c
+    points of every second one, the largest over the axes (1 without a free axis)."""
+    f = [math.ceil(n / 2) / (n - math.ceil(n / 2)) for n in counts if n > 1]
+    return max(f) if f else 1.0
+
+
+def _grid_error(X: np.ndarray, rows: np.ndarray, counts) -> ErrorRule:
+    factor = _richardson(counts)
+    return ErrorRule("subgrid", (Rule(X[rows]),), factor,
+                     f"grid against its sub-grid of every second point, Richardson factor {factor:.3g} "
+                     "(first-order rule)")
+
+
+def _coarse_error(X: np.ndarray, w: np.ndarray, n: int) -> ErrorRule:
+    return ErrorRule("coarse", (Rule(X, w),), 1.0, f"|Q_{n} - Q_{n - 1}| (Gauss-Legendre, one node fewer per axis)")
+
+
+def _rqmc(spec: WorkspaceSpec, names: tuple[str, ...], dim: int, to_points) -> Workspace:
+    P, S = spec.points, spec.scramblings
+    U = _sobol_sets(dim, int(round(math.log2(P))), S, spec.seed)
+    X = np.concatenate([to_points(U[s]) for s in range(S)])
+    rules = tuple(Rule(X[s * P:(s + 1) * P]) for s in range(S))
+    err = ErrorRule("scramblings", rules, 1.0, f"standard error over {S} scramblings of {P} Sobol points")
+    return Workspace(spec, names, X, None, None, err)
+
+
+_SAMPLE_ERROR = ErrorRule("sample", (), 1.0, "std / sqrt(points), the Monte Carlo standard error")
+
+
 def sample(spec: WorkspaceSpec, names: tuple[str, ...]) -> Workspace:
     """Sample the region of ``spec`` over the pose axes ``names`` (SI units).
     Raises :class:`WorkspaceTooLarge` before allocating more than MAX_POINTS points."""
@@ -151,15 +308,28 @@ def sample(spec: WorkspaceSpec, names: tuple[str, ...]) -> Workspace:
             mesh = np.meshgrid(*axes, indexing="ij")
             X = np.stack([g.ravel() for g in mesh], axis=-1)
             shape = tuple(len(axes[i]) for i in free)
-            return Workspace(spec, names, X, shape)
+            rows = np.ravel_multi_index(np.ix_(*(np.arange(0, len(g), 2) for g in axes)),
+                                        tuple(len(g) for g in axes)).ravel()
+            return Workspace(spec, names, X, shape, None, _grid_error(X, rows, shape))
+        if spec.sampling == "gauss":
+            n = spec.points_per_axis
+            X, w = _gauss_box(ranges, n)
+            Xc, wc = _gauss_box(ranges, n - 1)
+            return Workspace(spec, names, X, (n,) * len(free), w, _coarse_error(Xc, wc, n))
+
+        def unit_to_box(U):
+            X = np.empty((U.shape[0], len(names)))
+            for i, (lo, hi) in enumerate(ranges):
+                X[:, i] = lo
+            for j, i in enumerate(free):
+                lo, hi = ranges[i]
+                X[:, i] = lo + (hi - lo) * U[:, j]
+            return X
+
+        if spec.sampling == "rqmc":
+            return _rqmc(spec, names, len(free), unit_to_box)
         U = _unit_samples(spec.sampling, spec.points, len(free), spec.seed)
-        X = np.empty((spec.points, len(names)))
-        for i, (lo, hi) in enumerate(ranges):
-            X[:, i] = lo
-        for j, i in enumerate(free):
-            lo, hi = ranges[i]
-            X[:, i] = lo + (hi - lo) * U[:, j]
-        return Workspace(spec, names, X, None)
+        return Workspace(spec, names, unit_to_box(U), None, None, _SAMPLE_ERROR)
 
     # cylinder: a disc in the first two axes times the third axis
     r = spec.radius
@@ -171,11 +341,24 @@ def sample(spec: WorkspaceSpec, names: tuple[str, ...]) -> Workspace:
         a, b, c = np.meshgrid(g, g, g3, indexing="ij")
         inside = a * a + b * b <= r * r * (1 + 1e-12)
         X = np.stack([cx + a[inside], cy + b[inside], c[inside]], axis=-1)
-        return Workspace(spec, names, X, None)
+        i, j, k = np.meshgrid(*(np.arange(len(v)) % 2 == 0 for v in (g, g, g3)), indexing="ij")
+        rows = (np.cumsum(inside.ravel()) - 1)[(inside & i & j & k).ravel()]
+        counts = (len(g), len(g), len(g3))
+        return Workspace(spec, names, X, None, None, _grid_error(X, rows, counts))
     free3 = hi3 > lo3
+    if spec.sampling == "gauss":
+        n = spec.points_per_axis
+        X, w = _gauss_cylinder(r, (cx, cy), (lo3, hi3), n)
+        Xc, wc = _gauss_cylinder(r, (cx, cy), (lo3, hi3), n - 1)
+        return Workspace(spec, names, X, None, w, _coarse_error(Xc, wc, n))
+
+    def unit_to_cylinder(U):
+        rad = r * np.sqrt(U[:, 0])          # uniform over the disc area
+        ang = 2 * np.pi * U[:, 1]
+        z = lo3 + (hi3 - lo3) * U[:, 2] if free3 else np.full(U.shape[0], lo3)
+        return np.stack([cx + rad * np.cos(ang), cy + rad * np.sin(ang), z], axis=-1)
+
+    if spec.sampling == "rqmc":
+        return _rqmc(spec, names, 3 if free3 else 2, unit_to_cylinder)
     U = _unit_samples(spec.sampling, spec.points, 3 if free3 else 2, spec.seed)
-    rad = r * np.sqrt(U[:, 0])          # uniform over the disc area
-    ang = 2 * np.pi * U[:, 1]
-    z = lo3 + (hi3 - lo3) * U[:, 2] if free3 else np.full(spec.points, lo3)
-    X = np.stack([cx + rad * np.cos(ang), cy + rad * np.sin(ang), z], axis=-1)
-    return Workspace(spec, names, X, None)
+    return Workspace(spec, names, unit_to_cylinder(U), None, None, _SAMPLE_ERROR)

@@ -109,9 +109,11 @@ def test_nothing_imports_the_cli():
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
     ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
-                            "optdesign.report_html")),
+                            "optdesign.report_html", "optdesign.studies", "optdesign.units")),
     ("optdesign.runs", ()),
-    ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices")),
+    # paper studies sit beside the optimizer: they evaluate designs of a config
+    ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices", "optdesign.config", "optdesign.evaluate",
+                           "optdesign.workspace")),
 ])
 def test_layers_import_only_what_lies_below(layer, allowed):
     assert not _violations(allowed, layer), _violations(allowed, layer)

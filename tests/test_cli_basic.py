@@ -72,7 +72,10 @@ def test_evaluate_table(capsys):
     rc, out, err = run_main(capsys, ["evaluate", PAPER])
     assert rc == 0 and err == ""
     assert "121 points" in out
-    rows = {tuple(c.strip() for c in line.strip("|").split("|")[:2]): line for line in out.splitlines() if line.startswith("| ")}
+    rows = {}   # the first table (mean, ±, paper, rel. diff); the spread over W follows
+    for line in out.splitlines():
+        if line.startswith("| "):
+            rows.setdefault(tuple(c.strip() for c in line.strip("|").split("|")[:2]), line)
     line = rows[("after", "stiffness")]
     assert "0.3523" in line and "0.3522" in line and "+0.02%" in line
     assert "-19.22%" in rows[("before", "dynamic")]

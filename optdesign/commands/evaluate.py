@@ -7,7 +7,7 @@ COMMAND = "evaluate"
 
 
 def register(sub):
-    p = sub.add_parser(COMMAND, help="global indices (mean, min, max over W) of the config's designs")
+    p = sub.add_parser(COMMAND, help="global indices (mean ± error estimate, min, max over W) of the config's designs")
     p.add_argument("config", help="YAML config file")
     p.add_argument("--design", action="append", metavar="NAME",
                    help="a named design of the config (repeatable; default: all)")
@@ -16,8 +16,9 @@ def register(sub):
 
 
 def comparison_rows(cfg, results: dict) -> list[list[str]]:
-    """Rows: design, index, mean, min, max, paper value, relative difference."""
-    from ..tables import fmt
+    """Rows: design, index, mean, ± its error estimate (the index's units),
+    paper value, relative difference."""
+    from ..tables import fmt, fmt_g
 
     rows = []
     for dname, rec in results.items():
@@ -26,25 +27,36 @@ def comparison_rows(cfg, results: dict) -> list[list[str]]:
             v = rec[iname]
             paper = ref.get(iname)
             rel = (v["mean"] - paper) / paper if paper else None
-            rows.append([dname, iname, fmt(v["mean"]), fmt(v["min"]), fmt(v["max"]),
+            err = rec.get("global_indices_error", {}).get(iname)
+            rows.append([dname, iname, fmt(v["mean"]), fmt_g(err, 2) if err is not None else "-",
                          fmt(paper) if paper is not None else "-",
                          f"{100 * rel:+.2f}%" if rel is not None else "-"])
     return rows
 
 
+def spread_rows(cfg, results: dict) -> list[list[str]]:
+    """Rows: design, index, min, max and standard deviation over the points of W."""
+    from ..tables import fmt
+
+    return [[d, k, fmt(rec[k]["min"]), fmt(rec[k]["max"]), fmt(rec[k]["std"])]
+            for d, rec in results.items() for k in cfg.indices]
+
+
 def run(args) -> int:
     from ._common import design_names, open_config
     from ..tables import table
-    from ..evaluate import evaluate_named, workspace_of
+    from ..evaluate import error_method, evaluate_named, workspace_of
 
     cfg = open_config(args.config)
     names = design_names(cfg, args.design)
     ws = workspace_of(cfg)
     res = evaluate_named(cfg, names, ws)
     if args.json:
-        out = {"config": cfg.source, "mechanism": cfg.mechanism, "workspace_points": ws.n, "designs": {}}
+        out = {"config": cfg.source, "mechanism": cfg.mechanism, "workspace_points": ws.n,
+               "error_method": error_method(ws), "designs": {}}
         for n, rec in res.items():
             d = {k: rec[k] for k in cfg.indices}
+            d["global_indices_error"] = {k: rec["global_indices_error"][k] for k in cfg.indices}
             d["reachable_fraction"] = rec["reachable_fraction"]
             d["parameters"] = cfg.design(n)
             if n in cfg.reference:
@@ -53,7 +65,10 @@ def run(args) -> int:
         print(json.dumps(out, indent=2, allow_nan=True))
         return 0
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
-    print(table(["design", "index", "mean", "min", "max", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
+    print(table(["design", "index", "mean", "±", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    print()
+    print(table(["design", "index", "min over W", "max over W", "std over W"], spread_rows(cfg, res)))
     print()
     print(table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()]))
     return 0

@@ -10,8 +10,17 @@ from .schema import OptimizerSpec
 __all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
 
 WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
-           "center", "unit"}
-SAMPLING = {"grid", "sobol", "halton", "lhs", "random"}
+           "center", "unit", "scramblings"}
+SAMPLING = {"grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random"}
+#: most points a workspace sample may have
+#: keys that a sampling does not take (a mistake to give)
+_NOT_FOR = {
+    "gauss": {"step": "a Gauss rule places points_per_axis nodes per axis",
+              "points": "a Gauss rule places points_per_axis nodes per axis",
+              "seed": "a Gauss rule is not random", "scramblings": "only rqmc sampling is scrambled"},
+    "rqmc": {"step": "rqmc places 'points' Sobol points per scrambling",
+             "points_per_axis": "rqmc places 'points' Sobol points per scrambling"},
+}
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "normalization", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission",
@@ -76,10 +85,33 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         key = "radius" if "radius" in ws else "center"
         r.fail(f"{path}.{key}", f"'{key}' is for type: cylinder; a box takes its ranges from 'axes'")
     sampling = r.string(ws.get("sampling", "grid"), f"{path}.sampling", choices=SAMPLING)
+    for key, why in _NOT_FOR.get(sampling, {}).items():
+        if key in ws:
+            r.fail(f"{path}.{key}", f"not used by sampling '{sampling}' ({why}); remove it")
+    if "scramblings" in ws and sampling != "rqmc":
+        r.fail(f"{path}.scramblings", f"only sampling 'rqmc' takes scramblings, not '{sampling}'")
     step = ppa = pts = None
-    if sampling == "grid":
+    scramblings = 8
+    free = sum(1 for lo, hi in axes.values() if hi > lo)
+    if sampling == "gauss":
+        ppa = r.integer(r.require(ws, "points_per_axis", path), f"{path}.points_per_axis", minimum=2, maximum=10_000)
+        total = (2 * ppa ** (free + 2)) if wtype == "cylinder" else ppa ** free
+        if total > MAX_POINTS:
+            r.fail(f"{path}.points_per_axis", f"{ppa} nodes per axis give {show(total)} points; expected at most {MAX_POINTS:,}")
+    elif sampling == "rqmc":
+        pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=2, maximum=MAX_POINTS)
+        if pts & (pts - 1):
+            lo2 = 1 << (pts.bit_length() - 1)
+            r.fail(f"{path}.points", f"expected a power of 2 (a Sobol set is balanced in blocks of 2^m), "
+                                     f"got {pts}; use {lo2} or {2 * lo2}")
+        if "scramblings" in ws:
+            scramblings = r.integer(ws["scramblings"], f"{path}.scramblings", minimum=2, maximum=1024)
+        if pts * scramblings > MAX_POINTS:
+            r.fail(f"{path}.points", f"{pts} points x {scramblings} scramblings give {show(pts * scramblings)} points; "
+                                     "expected at most {MAX_POINTS:,}")
+    elif sampling == "grid":
         if "points" in ws:
-            r.fail(f"{path}.points", "'points' is for sampling sobol, halton, lhs or random; "
+            r.fail(f"{path}.points", "'points' is for sampling sobol, halton, lhs, random or rqmc; "
                                      "a grid takes 'step' or 'points_per_axis'")
         if "step" in ws and "points_per_axis" in ws:
             r.fail(f"{path}.points_per_axis", "give 'step' or 'points_per_axis', not both")
@@ -94,15 +126,16 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     else:
         for key in ("step", "points_per_axis"):
             if key in ws:
-                r.fail(f"{path}.{key}", f"'{key}' is for sampling: grid; {sampling} sampling takes 'points'")
+                r.fail(f"{path}.{key}", f"'{key}' is for sampling: grid (or gauss); {sampling} sampling takes 'points'")
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=MAX_POINTS)
     seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0, maximum=2 ** 32 - 1)
     spec = WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
-                         points=pts, seed=seed, radius=radius, center=center, unit=unit)
+                         points=pts, seed=seed, radius=radius, center=center, unit=unit, scramblings=scramblings)
     n = point_count(spec, names)
     if n > MAX_POINTS:
-        key = "step" if step is not None else "points_per_axis"
-        r.fail(f"{path}.{key}", f"{key} {show(ws[key])} gives {n:,} grid points; expected at most {MAX_POINTS:,}")
+        key = "step" if step is not None else ("points_per_axis" if ppa is not None else "points")
+        what = "grid points" if sampling == "grid" else "points"
+        r.fail(f"{path}.{key}", f"{key} {show(ws[key])} gives {n:,} {what}; expected at most {MAX_POINTS:,}")
     return spec
 
 

@@ -199,6 +199,15 @@ class Mechanism:
         bitwise.  Every answer must equal the numpy path's to 1e-12 relative."""
         return None
 
+    def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
+        """The compiled path's local values for these requests at the points X
+        (N, dof): ``(values, reachable)`` with ``values[request.name]`` (D, N)
+        (NaN where not reachable) and ``reachable`` (D, N), or None when this
+        mechanism has no compiled path for them (the caller then runs the
+        numpy path).  Used for weighted quadratures of the global index; the
+        values must equal the numpy path's to 1e-12 relative."""
+        return None
+
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
         """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
         (actuator-space mass matrix of the dynamic index)."""

@@ -5,6 +5,8 @@
   stiffness and isotropy indices and the reachable mask in one parallel pass
   (:mod:`.kernels`), reduced to mean, min, max and standard deviation over the
   reachable points (see ``docs/performance.md``);
+* :func:`local_values` answers ``P4S.local_values`` (the per-point values of
+  the same kernel, for weighted quadratures);
 * :func:`inverse` and :func:`jacobian` (:mod:`.ik_kernels`) and
   :func:`forward` (:mod:`.fk_kernels`) back the public methods of
   :class:`~.model.P4S`.
@@ -35,7 +37,7 @@ from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singul
 from .dynamics import mass_coefficients, platform_mass, solve_T
 
 __all__ = ["LOCAL", "FK", "IK", "VALUE_NAMES", "SUPPORTED", "design_constants", "p4s_local", "p4s_summary",
-           "global_statistics", "plan", "forward", "inverse", "jacobian"]
+           "global_statistics", "local_values", "plan", "forward", "inverse", "jacobian"]
 
 LOCAL = KernelModule("optdesign.mechanisms.p4s.kernels")
 FK = KernelModule("optdesign.mechanisms.p4s.fk_kernels")
@@ -255,6 +257,28 @@ def global_statistics(mech, requests, X):
             st = st * fac
         summary[n] = {"mean": st[0], "min": st[1], "max": st[2], "std": st[3], "count": counts}
     return summary, reach
+
+
+def local_values(mech, requests, X):
+    """The local-values seam's answer from the fused kernel (see
+    ``Mechanism.local_values``), or None when it does not apply."""
+    if not enabled():
+        return None
+    rows = plan(requests)
+    if rows is None or _n_designs(mech) is None:
+        return None
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3 or LOCAL.get() is None:
+        return None
+    res = LOCAL.guarded(p4s_local, mech, X, any(row == 4 for _, row, _ in rows))
+    if res is None:
+        return None
+    vals, reach = res
+    out = {}
+    for n, row, fac in rows:
+        v = vals[VALUE_NAMES[row]]
+        out[n] = v * fac if fac != 1.0 else v
+    return out, reach
 
 
 # ---------------------------------------------------------------------- kinematics

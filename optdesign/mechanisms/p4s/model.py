@@ -219,6 +219,10 @@ class P4S(Mechanism):
         """The fused compiled kernel's global indices (see :func:`.compiled.global_statistics`)."""
         return compiled.global_statistics(self, requests, X)
 
+    def local_values(self, requests, X):
+        """The fused compiled kernel's local values (see :func:`.compiled.local_values`)."""
+        return compiled.local_values(self, requests, X)
+
     def bare_kernel(self, X):
         """The fused kernel alone, for benchmarks (see :func:`.compiled.bare_kernel`)."""
         return compiled.bare_kernel(self, X)
