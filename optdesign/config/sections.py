@@ -108,7 +108,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             scramblings = r.integer(ws["scramblings"], f"{path}.scramblings", minimum=2, maximum=1024)
         if pts * scramblings > MAX_POINTS:
             r.fail(f"{path}.points", f"{pts} points x {scramblings} scramblings give {show(pts * scramblings)} points; "
-                                     "expected at most {MAX_POINTS:,}")
+                                     f"expected at most {MAX_POINTS:,}")
     elif sampling == "grid":
         if "points" in ws:
             r.fail(f"{path}.points", "'points' is for sampling sobol, halton, lhs, random or rqmc; "
