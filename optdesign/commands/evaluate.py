@@ -16,7 +16,7 @@ def register(sub):
 
 
 def comparison_rows(cfg, results: dict) -> list[list[str]]:
-    """Rows: design, index, mean, min, max, paper value, relative difference."""
+    """Rows: design, index, mean, min, max, reference value, relative difference."""
     from ..tables import fmt
 
     rows = []
@@ -34,7 +34,7 @@ def comparison_rows(cfg, results: dict) -> list[list[str]]:
 
 def run(args) -> int:
     from ._common import design_names, open_config
-    from ..tables import table
+    from ..tables import print_table
     from ..evaluate import evaluate_named, workspace_of
 
     cfg = open_config(args.config)
@@ -52,8 +52,17 @@ def run(args) -> int:
             out["designs"][n] = d
         print(json.dumps(out, indent=2, allow_nan=True))
         return 0
+    from ..units import index_label
+
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
-    print(table(["design", "index", "mean", "min", "max", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    headers = ["design", "index", "mean", "min", "max", "reference", "rel. diff"]
+    rows = comparison_rows(cfg, res)
+    for r in rows:   # the index with its unit (SI)
+        r[1] = index_label(cfg, r[1])
+    if not cfg.reference:   # no reference values: no columns for them
+        keep = [i for i, h in enumerate(headers) if h not in ("reference", "rel. diff")]
+        headers, rows = [headers[i] for i in keep], [[r[i] for i in keep] for r in rows]
+    print_table(headers, rows)
     print()
-    print(table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()]))
+    print_table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()])
     return 0

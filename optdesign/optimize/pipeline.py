@@ -95,9 +95,16 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
     alg, history = run_stage(folder, st.name, problem, factory, gens, stage_seed(seed, i), progress or Progress(False),
                              cfg.optimizer.checkpoint_interval, evaluator.index_names, evaluator.free,
                              evaluator.index_names + list(evaluator.extra), stop, budget)
-    res = stage_summary(folder, st, alg, problem, evaluator, history)
+    res = stage_summary(folder, st, alg, problem, evaluator, history, lambda rows, s: _display(cfg, rows, s))
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
+
+
+def _display(cfg: Config, rows: list, st: Stage | None) -> list:
+    """A stage's rows as its CSV files show them (units, objectives in their own sense)."""
+    from ..units import display_rows
+
+    return display_rows(cfg, rows, (st.index, st.sense) if st is not None and st.kind == "single" else None)
 
 
 def _record(st: Stage, seed: int, i: int):

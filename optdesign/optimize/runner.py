@@ -59,9 +59,17 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
                         jobs=jobs, stop=stop)
 
 
-def summary_line(res: PipelineResult) -> str:
+def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
+    """One line: the run folder, its status, f, the global indices and the
+    optimum (in the config's units with the unit named)."""
+    from ..units import design_text, index_text
+
     r = res.results
-    opt = ", ".join(f"{k}={v:.6g}" for k, v in r["optimum"].items())
-    idx = ", ".join(f"{k}={v:.5g}" for k, v in r["global_indices"].items())
-    return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective={r['objective']:.6g} "
+    if cfg is None:
+        cfg = parse_config(res.folder.config_text(), source=str(res.folder.path / "config.yaml"))
+    opt = design_text(cfg, r["optimum"]) or "no free variable"
+    idx = ", ".join(index_text(cfg, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
+    f = r["objective"]
+    f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
+    return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective f={f_txt} "
             f"[{idx}] at {opt} ({r.get('evaluations', '?')} evaluations, {r.get('wall_time_s', '?')} s)")

@@ -11,7 +11,7 @@ import numpy as np
 from ..config import Config
 from ..evaluate import evaluate, mechanism_class
 from ..workspace import Workspace, WorkspaceSpec
-from .units import pose_display
+from ..units import pose_display
 
 __all__ = ["AtlasMap", "atlas_map", "DEFAULT_RESOLUTION"]
 
