@@ -73,9 +73,11 @@ def test_evaluate_table(capsys):
     assert rc == 0 and err == ""
     assert "121 points" in out
     rows = {tuple(c.strip() for c in line.strip("|").split("|")[:2]): line for line in out.splitlines() if line.startswith("| ")}
-    line = rows[("after", "stiffness")]
+    line = rows[("after", "stiffness [N/m]")]        # the index with its unit
     assert "0.3523" in line and "0.3522" in line and "+0.02%" in line
-    assert "-19.22%" in rows[("before", "dynamic")]
+    assert "-19.22%" in rows[("before", "dynamic [kg]")]
+    head = next(l for l in out.splitlines() if l.startswith("| design"))
+    assert "reference" in head and "paper" not in head
 
 
 def test_evaluate_one_design_json(capsys):
