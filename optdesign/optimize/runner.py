@@ -10,7 +10,7 @@ from .pipeline import PipelineResult, run_pipeline
 from .progress import Progress
 from .workers import StopRequest
 
-__all__ = ["start_run", "resume_run", "summary_line", "config_text"]
+__all__ = ["start_run", "resume_run", "summary_line", "config_text", "config_of_folder"]
 
 
 def config_text(cfg: Config) -> str:
@@ -59,6 +59,16 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
                         jobs=jobs, stop=stop)
 
 
+def config_of_folder(path: str | os.PathLike) -> Config:
+    """The config a run folder was run with (its config.yaml, the safe loader)."""
+    folder = RunFolder(path)
+    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"))
+    name = folder.read_manifest(strict=False).get("config_name")
+    if isinstance(name, str) and name:
+        cfg.name = name
+    return cfg
+
+
 def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
     """One line: the run folder, its status, f, the global indices and the
     optimum (in the config's units with the unit named)."""
@@ -66,7 +76,7 @@ def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
 
     r = res.results
     if cfg is None:
-        cfg = parse_config(res.folder.config_text(), source=str(res.folder.path / "config.yaml"))
+        cfg = config_of_folder(res.folder.path)
     opt = design_text(cfg, r["optimum"]) or "no free variable"
     idx = ", ".join(index_text(cfg, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
     f = r["objective"]
