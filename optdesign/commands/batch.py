@@ -191,11 +191,10 @@ def _row_line(row: dict) -> str:
 
 
 def _print_json(rows, tasks, csv_path, md_path) -> None:
-    import json
-
     from ..batch import group_stats
+    from ._common import json_text
 
     out = {"runs": len(rows), "complete": sum(1 for r in rows if r.get("status") == "complete"),
            "summary": {"csv": str(csv_path), "markdown": str(md_path), "plot": str(md_path.with_suffix(".png"))},
            "rows": rows, "groups": group_stats(rows)}
-    print(json.dumps(out, indent=2, default=str, allow_nan=True))
+    print(json_text(out))

@@ -10,7 +10,7 @@ import numpy as np
 from ..config import Config
 from ..runs import RunFolder
 
-__all__ = ["write_report", "parameter_table", "index_table", "reference_table", "format_results"]
+__all__ = ["write_report", "parameter_table", "index_table", "reference_table", "format_results", "optimum_yaml"]
 
 
 def _f(x, digits=4) -> str:
@@ -132,7 +132,8 @@ def format_results(cfg: Config, results: dict) -> str:
     lines.append(f"**Optimum** (weighted sum): {design_text(cfg, results['optimum']) or 'no free variable'}.  ")
     lines.append("**Global indices** (means over W): "
                  + ", ".join(index_text(cfg, k, v) for k, v in results["global_indices"].items() if k in cfg.indices)
-                 + ".")
+                 + ".  ")
+    lines.append("The optimum as a named design, ready to paste under a config's `designs:`: `optimum.yaml`.")
     lines.append("")
     lines.append("## Design parameters")
     lines.append("")
@@ -212,8 +213,27 @@ def _pareto_lines(cfg: Config, results: dict) -> list[str]:
     return lines
 
 
+def optimum_yaml(cfg: Config, results: dict, run_name: str = "") -> str:
+    """The optimum as a named design in the config's units, ready to paste
+    under a config's ``designs:`` (every design variable, its unit in a comment)."""
+    from ..units import DIMENSIONLESS
+
+    width = max(len(k) for k in cfg.design_variables)
+    lines = [f"# The weighted-sum optimum of {cfg.name}" + (f" (run {run_name}" if run_name else "")
+             + (f", seed {results['seed']})" if run_name else f" (seed {results['seed']})") + ",",
+             "# in the config's units: paste it under `designs:` of a config of mechanism "
+             f"{cfg.mechanism} with the same design variables.",
+             "optimum:"]
+    for k, dv in cfg.design_variables.items():
+        u = _unit(cfg, k)
+        note = ("" if u == DIMENSIONLESS else u) + ("" if dv.free else (", " if u != DIMENSIONLESS else "") + "fixed")
+        lines.append(f"  {k + ':':<{width + 1}} {dv.display(results['optimum'][k]):.12g}" + (f"   # {note}" if note else ""))
+    return "\n".join(lines) + "\n"
+
+
 def write_report(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
     folder.write_text("results.md", format_results(cfg, results))
+    folder.write_text("optimum.yaml", optimum_yaml(cfg, results, folder.path.name))
     _history_csv(folder, stages)
     try:
         _plots(cfg, folder, results, stages)
