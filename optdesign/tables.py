@@ -49,11 +49,27 @@ def _shorten(cell: str, most: int) -> str:
     return cell if len(cell) <= most else cell[: most // 2 - 1] + "…" + cell[-(most - most // 2):]
 
 
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell.rstrip("x%×"))
+    except ValueError:
+        return cell.strip() in ("-", "inf", "-inf", "nan")
+    return True
+
+
+def _key_columns(rows: Sequence[Sequence[str]], n: int) -> int:
+    """How many leading columns name a row (text, not numbers): 1 or 2."""
+    if n > 2 and rows and all(not _is_number(r[1]) for r in rows):
+        return 2
+    return 1
+
+
 def fold_table(headers: Sequence[str], rows: Sequence[Sequence], width: int | None) -> list[str]:
     """``table(headers, rows)`` as one or more tables no wider than ``width``
     characters (None: one table): the columns are split into groups, each
-    table repeating the first column; a cell too long for the width is
-    shortened in the middle (…)."""
+    table repeating the leading columns that name a row (one, or two where
+    the second is text too); a cell too long for the width is shortened in
+    the middle (…)."""
     full = table(headers, rows)
     if width is None or max(len(line) for line in full.splitlines()) <= width:
         return [full]
@@ -61,17 +77,20 @@ def fold_table(headers: Sequence[str], rows: Sequence[Sequence], width: int | No
     headers = [_shorten(str(h), most) for h in headers]
     rows = [[_shorten(str(c), most) for c in r] for r in rows]
     widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)]
-    if len(headers) == 1:
+    keys = _key_columns(rows, len(headers))
+    if len(headers) <= keys:
         return [table(headers, rows)]
-    groups, cur, used = [], [], 1 + widths[0] + 3
-    for i in range(1, len(headers)):
+    base = 1 + sum(widths[i] + 3 for i in range(keys))
+    groups, cur, used = [], [], base
+    for i in range(keys, len(headers)):
         if cur and used + widths[i] + 3 > width:
             groups.append(cur)
-            cur, used = [], 1 + widths[0] + 3
+            cur, used = [], base
         cur.append(i)
         used += widths[i] + 3
     groups.append(cur)
-    return [table([headers[0]] + [headers[i] for i in g], [[r[0]] + [r[i] for i in g] for r in rows]) for g in groups]
+    lead = list(range(keys))
+    return [table([headers[i] for i in lead + g], [[r[i] for i in lead + g] for r in rows]) for g in groups]
 
 
 def _parse(lines: list[str]) -> tuple[list[str], list[list[str]]] | None:

@@ -30,7 +30,7 @@ def run_json(res, cfg=None) -> dict:
     from ..units import index_unit, variable_unit
 
     cfg = cfg or config_of_folder(res.folder.path)
-    r, path = res.results, res.folder.path
+    r, path = res.results, res.folder.path.resolve()
     out = {"folder": str(path), "status": r["status"], "config": cfg.name, "mechanism": cfg.mechanism,
            "seed": r["seed"], "objective": r["objective"],
            "optimum": {k: {"value": dv.display(r["optimum"][k]), "unit": variable_unit(cfg, k), "si": r["optimum"][k],
