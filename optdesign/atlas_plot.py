@@ -19,6 +19,7 @@ def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker  # noqa: F401
 
     Z = amap.values[k]
     sense = cfg.indices[k].sense
@@ -43,7 +44,9 @@ def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
             cb = fig.colorbar(cs, ax=ax, shrink=0.9)
             cb.set_label(ylab)
             cb.ax.tick_params(labelsize=8)
-            cl = ax.contour(A, B, Z, levels=cs.levels[::4], colors="white", linewidths=0.7)
+            # labelled lines inside the range (a line at the extreme value traces noise)
+            inner = [lv for lv in cs.levels[2:-1:4] if np.nanmin(Z) < lv < np.nanmax(Z)]
+            cl = ax.contour(A, B, Z, levels=inner, colors="white", linewidths=0.7)
             ax.clabel(cl, fontsize=7, fmt="%.4g", inline=True)
         elif finite.any():
             v = float(np.nanmax(Z))
@@ -61,6 +64,7 @@ def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
         ax.set_xlim(amap.coords[0][0] - pad[0], amap.coords[0][-1] + pad[0])
         ax.set_ylim(amap.coords[1][0] - pad[1], amap.coords[1][-1] + pad[1])
         ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(6))
+        ax.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(6))
         ax.tick_params(labelsize=8)
     missing = amap.unreachable + amap.singular.get(k, 0)
     where = "; ".join(w for w in (amap.held, f"cut at {amap.cut}" if amap.cut else "") if w)

@@ -314,24 +314,48 @@ def _plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
                                                                     ("^", "tab:purple"), ("v", "tab:brown")]):
         marks[n] = (mk, col, f"{n} (config)")
     sizes = {name: len(s["front"]) for name, s in fronts.items()}
-    for ax, (i, j) in zip(axes.flat, pairs):
-        for name, s in fronts.items():
-            F = np.array([[r[f"objective_{t}"] for t in terms] for r in s["front"]])
-            x, y = _own_sense(cfg, terms[i], F[:, i]), _own_sense(cfg, terms[j], F[:, j])
-            one = len(F) == 1
-            ax.scatter(x, y, s=110 if one else 14, alpha=0.9 if one else 0.6, edgecolors="k" if one else "none",
-                       linewidths=1.2, label=f"{name} ({len(F)} design{'s' if len(F) != 1 else ''})", zorder=4)
-        for alg, p in results.get("pareto", {}).items():
-            lo = np.array(p["normalization"]["best"])
-            hi = np.array(p["normalization"]["worst"])
-            for n, pl in p["placement"].items():
-                if n not in marks:
-                    continue
+    own = {name: np.array([[_own_sense(cfg, t, r[f"objective_{t}"]) for t in terms] for r in s["front"]])
+           for name, s in fronts.items()}
+    points = {}   # the weighted-sum optimum and the named designs, in the objectives' own sense
+    for alg, p in results.get("pareto", {}).items():
+        lo, hi = np.array(p["normalization"]["best"]), np.array(p["normalization"]["worst"])
+        for n, pl in p["placement"].items():
+            if n in marks:
                 v = np.array(pl["normalized_objectives"]) * (hi - lo) + lo
-                mk, col, lab = marks[n]
-                ax.scatter([_own_sense(cfg, terms[i], v[i])], [_own_sense(cfg, terms[j], v[j])], marker=mk, c=col,
-                           s=80, label=lab, zorder=5)
-            break
+                points[n] = np.array([_own_sense(cfg, t, v[k]) for k, t in enumerate(terms)])
+        break
+    for ax, (i, j) in zip(axes.flat, pairs):
+        for n_front, (name, F) in enumerate(own.items()):
+            label = f"{name} ({len(F)} design{'s' if len(F) != 1 else ''})"
+            if len(F) == 1:   # a front of one design: a large ring (one size per front), seen around other marks
+                ax.scatter(F[:, i], F[:, j], s=260 + 160 * n_front, facecolors="none", linewidths=2.2,
+                           edgecolors=f"C{n_front}", label=label, zorder=6)
+            else:
+                ax.scatter(F[:, i], F[:, j], s=14, alpha=0.6, color=f"C{n_front}", edgecolors="none", label=label,
+                           zorder=4)
+        # the view: the fronts and the weighted-sum optimum; a named design far away is drawn at the edge
+        core = np.vstack([*own.values()] + ([points["weighted_sum_optimum"][None, :]] if "weighted_sum_optimum" in points else []))
+        lims = []
+        for k in (i, j):
+            a, b = float(np.min(core[:, k])), float(np.max(core[:, k]))
+            scale = max(abs(a), abs(b), 1e-300)
+            if b - a > 1e-6 * scale:       # a real spread: zoom on it
+                pad = 0.08 * (b - a)
+            else:                          # one design, or designs apart by round-off only
+                a = b = 0.5 * (a + b)
+                pad = 0.05 * scale
+            lims.append((a - pad, b + pad))
+        for n, v in points.items():
+            mk, col, lab = marks[n]
+            x, y = v[i], v[j]
+            inside = lims[0][0] <= x <= lims[0][1] and lims[1][0] <= y <= lims[1][1]
+            if not inside:
+                lab = f"{lab}: outside the view, drawn at its edge"
+                x, y = np.clip(x, *lims[0]), np.clip(y, *lims[1])
+            ax.scatter([x], [y], marker=mk, s=80, label=lab, zorder=7 if n == "weighted_sum_optimum" else 5, clip_on=False,
+                       c=col if inside else "none", edgecolors=col, linewidths=1.5)
+        ax.set_xlim(*lims[0])
+        ax.set_ylim(*lims[1])
         ax.set_xlabel(_objective_axis(cfg, terms[i]), fontsize=9)
         ax.set_ylabel(_objective_axis(cfg, terms[j]), fontsize=9)
         ax.tick_params(labelsize=8)

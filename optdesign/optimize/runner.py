@@ -14,7 +14,14 @@ __all__ = ["start_run", "resume_run", "summary_line", "config_text", "config_of_
 
 
 def config_text(cfg: Config) -> str:
-    """The text of the config as run (the file as given)."""
+    """The text of the config as run (the file as given; for a config built
+    from a mapping in Python, that mapping as YAML, which reads back to the same config)."""
+    if cfg.text is not None:
+        return cfg.text
+    if cfg.source.startswith("<"):   # config_from_dict / parse_config of a text without a file
+        from ..config.yamlsafe import dump
+
+        return dump(cfg.raw, sort_keys=False)
     src = Path(cfg.source)
     if src.exists():
         return src.read_text()
