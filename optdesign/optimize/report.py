@@ -350,7 +350,7 @@ def _plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
             x, y = v[i], v[j]
             inside = lims[0][0] <= x <= lims[0][1] and lims[1][0] <= y <= lims[1][1]
             if not inside:
-                lab = f"{lab}: outside the view, drawn at its edge"
+                lab = f"{lab}, outside: at the edge"
                 x, y = np.clip(x, *lims[0]), np.clip(y, *lims[1])
             ax.scatter([x], [y], marker=mk, s=80, label=lab, zorder=7 if n == "weighted_sum_optimum" else 5, clip_on=False,
                        c=col if inside else "none", edgecolors=col, linewidths=1.5)
@@ -364,8 +364,9 @@ def _plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
         ax.grid(alpha=0.3)
     h, lab = axes[0][0].get_legend_handles_labels()
     uniq = dict(zip(lab, h))
+    longest = max(len(k) for k in uniq) + 5           # characters of an entry (8 pt: about 15 per inch)
     fig.legend(uniq.values(), uniq.keys(), fontsize=8, loc="outside lower center",
-               ncol=max(1, min(len(uniq), int(ncol * 4.8 // 2.4))))
+               ncol=max(1, min(len(uniq), int(ncol * 4.8 * 15 // longest))))
     one = [n for n, k in sizes.items() if k == 1]
     title = f"{cfg.name}: Pareto fronts, each objective in its own sense"
     if one:
