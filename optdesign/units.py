@@ -18,7 +18,7 @@ from .evaluate import mechanism_class
 
 __all__ = ["DIMENSIONLESS", "MIXED", "variable_unit", "pose_unit", "pose_display", "index_unit", "objective_unit",
            "label", "index_label", "variable_label", "design_text", "index_text", "constraint_unit", "csv_column",
-           "display_rows", "strip_unit"]
+           "display_rows", "strip_unit", "actuator_unit"]
 
 #: shown for a dimensionless quantity
 DIMENSIONLESS = "–"
@@ -69,6 +69,11 @@ def pose_display(cfg: Config, axis: str) -> tuple[str, float]:
 def _actuator_unit(cfg: Config) -> str:
     mech = _mech(cfg)
     return mech.actuator_unit({**mech.fixed_parameters, **cfg.parameters})
+
+
+def actuator_unit(cfg: Config) -> str:
+    """SI unit of the actuator values (m for prismatic joints and struts, rad for cranks)."""
+    return _actuator_unit(cfg)
 
 
 def _pose_common(cfg: Config, axes=None) -> str | None:

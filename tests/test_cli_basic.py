@@ -42,7 +42,7 @@ def test_ik_plain_text(capsys):
     rc, out, _ = run_main(capsys, ["ik", PAPER, "--design", "before", "0", "0", "0.592"])
     assert rc == 0
     # Table 1 pose 1 with the before dimensions: 0.4316 m (the table prints 0.42)
-    assert out.strip() == "l1 = 0.431582777507  l2 = 0.431582777507  l3 = 0.431582777507"
+    assert out.strip() == "l1 = 0.431582777507 m  l2 = 0.431582777507 m  l3 = 0.431582777507 m"
 
 
 def test_ik_unreachable_pose(capsys):
