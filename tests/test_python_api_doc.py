@@ -25,6 +25,10 @@ def test_the_page_has_code():
 
 
 def test_python_api_page_runs(tmp_path, capsys):
+    import optdesign
+    import optdesign.evaluate  # noqa: F401 - imported before: `od.evaluate` must stay the function
+
+    assert callable(optdesign.evaluate) and optdesign.evaluate.__name__ == "evaluate"
     (tmp_path / "configs").mkdir()
     shutil.copy(ROOT / "configs" / "p4s_paper.yaml", tmp_path / "configs" / "p4s_paper.yaml")
     old = os.getcwd()

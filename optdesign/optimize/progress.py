@@ -246,6 +246,7 @@ class RemoteProgress:
     def __init__(self, queue, interval: float = 0.25):
         self.queue, self.interval = queue, interval
         self.name = None
+        self.total = 0
         self._describe = None
         self._last = 0.0
 
@@ -256,12 +257,12 @@ class RemoteProgress:
             pass
 
     def start(self, label: str, total: int, done: int = 0, describe=None):
-        self.name, self._describe = label, describe
+        self.name, self._describe, self.total = label, describe, total
         self._put(("start", label, total, done))
 
     def update(self, gen: int, best=None):
         now = time.perf_counter()
-        if now - self._last >= self.interval:
+        if now - self._last >= self.interval or gen >= self.total:
             self._last = now
             self._put(("update", self.name, gen, _best_text(best, self._describe)))
 
