@@ -40,7 +40,8 @@ def run(args) -> int:
         ref_f = [f"{v['objective']} ({n})" for n, v in (r.get("reference") or {}).items()
                  if isinstance(v, dict) and isinstance(v.get("objective"), (int, float))]
         print()
-        print(f"weighted-sum objective f at the optimum: {r['objective']:.4f}"
+        f = r["objective"]
+        print(f"weighted-sum objective f at the optimum: {'0 (to round-off)' if abs(f) < 1e-12 else f'{f:.4f}'}"
               + (f" (paper f_min = {', '.join(ref_f)}; not comparable without the paper's bounds, see docs/reproduction.md)"
                  if ref_f else ""))
         print(f"full report: {res.folder.path / 'results.md'} and {res.folder.path / 'report.html'}")

@@ -110,10 +110,14 @@ def describe_row(cfg: Config, st: Stage, rec: dict) -> str:
     if st.kind == "single" and f"best_{st.index}" in rec:
         return index_text(cfg, st.index, rec[f"best_{st.index}"], 4)
     if st.kind == "weighted":
-        return f"f = {rec['best_objective']:.4g}"
+        return _f_text(rec["best_objective"])
     if "front_size" in rec:
         return f"{rec['front_size']} non-dominated"
     return ""
+
+
+def _f_text(f: float) -> str:
+    return "f = 0 (round-off)" if abs(f) < 1e-12 else f"f = {f:.4g}"
 
 
 def describe_result(cfg: Config, st: Stage, res: dict) -> str:
@@ -121,11 +125,11 @@ def describe_result(cfg: Config, st: Stage, res: dict) -> str:
     from ..units import index_text
 
     if st.kind == "single" and res.get("value") is not None:
-        return index_text(cfg, st.index, res["value"], 4) + f" ({'maximum' if st.sense == 'max' else 'minimum'})"
+        return index_text(cfg, st.index, res["value"], 4)
     if st.kind == "weighted" and res.get("objective") is not None:
-        return f"f = {res['objective']:.4g}"
+        return _f_text(res["objective"])
     if st.kind == "pareto":
-        return f"{res.get('front_size', '?')} non-dominated designs"
+        return f"{res.get('front_size', '?')} non-dominated"
     return ""
 
 

@@ -182,8 +182,8 @@ class Progress:
                 self._work_done += self._plan[name][1] * ((s.total - s.first) / max(s.total, 1) if s else 1.0)
             el = f" in {_clock(time.perf_counter() - s.t0)}" if s else ""
             best = summary or (s.best if s else "")
-        self._print(f"done {self._label(name)}" + (f": {best}" if best else "") + el
-                    + (" (worker process)" if s is not None and s.where == "worker" else ""))
+        where = " (worker)" if s is not None and s.where == "worker" else ""
+        self._print(f"done {self._label(name)}{where}" + (f": {best}" if best else "") + el)
 
     # ------------------------------------------------------------------ a stage in this process
     def start(self, label: str, total: int, done: int = 0, describe=None):
