@@ -115,36 +115,47 @@ def main() -> dict:
     OUT.mkdir(parents=True, exist_ok=True)
     labels = ["actuator 1", "actuator 2", "actuator 3"]
     for name, data, ylabel, title in (
-        ("p4s_fig5_velocities.png", qd * 1e3, "stroke velocity (mm/s)", "Actuator velocities (paper fig. 5)"),
-        ("p4s_fig6_accelerations.png", qdd, "stroke acceleration (m/s$^2$)", "Actuator accelerations (paper fig. 6)"),
-        ("p4s_fig9_forces.png", tau, "actuator force (N)", "Actuator forces (paper fig. 9)"),
+        ("p4s_fig5_velocities.png", qd * 1e3, "stroke velocity [mm/s]", "Actuator velocities (paper fig. 5)"),
+        ("p4s_fig6_accelerations.png", qdd, "stroke acceleration [m/s$^2$]", "Actuator accelerations (paper fig. 6)"),
+        ("p4s_fig9_forces.png", tau, "actuator force [N]", "Actuator forces (paper fig. 9)"),
     ):
-        fig, ax = plt.subplots(figsize=(7, 3.8))
+        fig, ax = plt.subplots(figsize=(7, 3.8), layout="constrained")
         for k in range(3):
             ax.plot(t, data[:, k], label=labels[k], lw=1.2, ls=("-", "--", ":")[k])
-        ax.set_xlabel("t (s)")
+        ax.set_xlabel("t [s]")
         ax.set_ylabel(ylabel)
-        ax.set_title(title + ": x = y = 0.001 sin(40 pi t), z = 0.57 m, before design")
+        ax.set_title(title + ": x = y = 0.001 sin(40 pi t) m, z = 0.57 m, before design")
         ax.title.set_fontsize(9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
+        # the legend beside the plot, never over a curve
+        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
         fig.savefig(OUT / name, dpi=110)
         plt.close(fig)
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
+    from matplotlib.lines import Line2D
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for k in range(3):
-        axes[0].plot(t, grav[:, k], color=f"C{k}", label=f"{labels[k]}: ours (energy-consistent)", lw=1.2)
-        axes[0].plot(t, grav[:, k] + extra21[:, k], color=f"C{k}", ls="--", lw=1.0, label=f"{labels[k]}: with eq. 21's rod term")
-        axes[1].plot(t, inertial[:, k], color=f"C{k}", lw=1.2, label=f"{labels[k]}: two rods per branch")
-        axes[1].plot(t, inertial_eq23[:, k], color=f"C{k}", ls="--", lw=1.0, label=f"{labels[k]}: eq. 23 (one rod)")
-    axes[0].set_title("gravity term (N)")
-    axes[1].set_title("inertial + velocity terms (N)")
+        axes[0].plot(t, grav[:, k], color=f"C{k}", lw=1.2)
+        axes[0].plot(t, grav[:, k] + extra21[:, k], color=f"C{k}", ls="--", lw=1.0)
+        axes[1].plot(t, inertial[:, k], color=f"C{k}", lw=1.2)
+        axes[1].plot(t, inertial_eq23[:, k], color=f"C{k}", ls="--", lw=1.0)
+    axes[0].set_title("gravity term", fontsize=10)
+    axes[1].set_title("inertial + velocity terms", fontsize=10)
+    axes[1].margins(y=0.22)   # room for the legend above the peaks
     for ax in axes:
-        ax.set_xlabel("t (s)")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("actuator force [N]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=6)
-    fig.tight_layout()
+    # one legend for the colours (actuators), one per panel for the line styles (models)
+    actuators = [Line2D([], [], color=f"C{k}", lw=1.2, label=labels[k]) for k in range(3)]
+    axes[0].legend(handles=[Line2D([], [], color="k", lw=1.2, label="ours (energy-consistent)"),
+                            Line2D([], [], color="k", ls="--", lw=1.0, label="with eq. 21's rod term")],
+                   fontsize=8, loc="center right")
+    axes[1].legend(handles=[Line2D([], [], color="k", lw=1.2, label="two rods per branch"),
+                            Line2D([], [], color="k", ls="--", lw=1.0, label="eq. 23 (one rod)")],
+                   fontsize=8, loc="upper right", framealpha=0.9)
+    fig.legend(handles=actuators, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.savefig(OUT / "p4s_eq21_gravity_term.png", dpi=110)
     plt.close(fig)
     (OUT / "p4s_dynamics_example.json").write_text(json.dumps(res, indent=2) + "\n")

@@ -10,6 +10,8 @@ The Python API (``docs/python-api.md``)::
 
 The names below are imported on first use, so ``import optdesign`` stays cheap.
 """
+import sys as _sys
+import types as _types
 from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version as _version
 
@@ -30,6 +32,22 @@ _EXPORTS = {
 _RENAMED = {"get_mechanism": "get", "available_mechanisms": "available"}
 
 __all__ = ["__version__", *_EXPORTS]
+
+
+class _Package(_types.ModuleType):
+    """The package's module: an export that shares its name with a submodule
+    (``evaluate``) stays the export when the submodule is imported (the import
+    system binds ``optdesign.evaluate`` on the package; the module stays in
+    ``sys.modules`` and ``from optdesign.evaluate import ...`` works as ever)."""
+
+    def __setattr__(self, name, value):
+        if (name in _EXPORTS and isinstance(value, _types.ModuleType)
+                and value.__name__ == f"{__name__}.{name}"):
+            value = getattr(value, _RENAMED.get(name, name))
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name):

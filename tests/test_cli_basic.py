@@ -14,6 +14,7 @@ from cli_helpers import run_main
 from conftest import PAPER as PAPER_YAML
 
 PAPER = str(PAPER_YAML)
+ROOT = PAPER_YAML.parents[1]
 P4S = get("p4s")
 BEFORE = dict(r_a=0.25, r_b=0.67, L=0.38, d=0.12, phi=np.radians(30.0))
 
@@ -41,7 +42,7 @@ def test_ik_plain_text(capsys):
     rc, out, _ = run_main(capsys, ["ik", PAPER, "--design", "before", "0", "0", "0.592"])
     assert rc == 0
     # Table 1 pose 1 with the before dimensions: 0.4316 m (the table prints 0.42)
-    assert out.strip() == "l1 = 0.431582777507  l2 = 0.431582777507  l3 = 0.431582777507"
+    assert out.strip() == "l1 = 0.431582777507 m  l2 = 0.431582777507 m  l3 = 0.431582777507 m"
 
 
 def test_ik_unreachable_pose(capsys):
@@ -76,9 +77,11 @@ def test_evaluate_table(capsys):
     for line in out.splitlines():
         if line.startswith("| "):
             rows.setdefault(tuple(c.strip() for c in line.strip("|").split("|")[:2]), line)
-    line = rows[("after", "stiffness")]
+    line = rows[("after", "stiffness [N/m]")]        # the index with its unit
     assert "0.3523" in line and "0.3522" in line and "+0.02%" in line
-    assert "-19.22%" in rows[("before", "dynamic")]
+    assert "-19.22%" in rows[("before", "dynamic [kg]")]
+    head = next(l for l in out.splitlines() if l.startswith("| design"))
+    assert "reference" in head and "paper" not in head
 
 
 def test_evaluate_one_design_json(capsys):
@@ -90,14 +93,23 @@ def test_evaluate_one_design_json(capsys):
     assert set(d["after"]["dynamic"]) >= {"mean", "min", "max"}
 
 
+def _atlas_rows(path):
+    """local_indices.csv keyed by quantity (the unit suffix dropped), and its header."""
+    from optdesign.units import strip_unit
+
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return [{strip_unit(k): v for k, v in r.items()} for r in rows], list(rows[0])
+
+
 def test_atlas_writes_csv_and_pngs(tmp_path, capsys):
-    rc, out, err = run_main(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path)])
+    # --resolution 11 is the config's own 11 x 11 grid: the local values average to the global indices
+    rc, out, err = run_main(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path), "--resolution", "11"])
     assert rc == 0 and err == ""
     folder = tmp_path / "p4s_paper-after"
-    with open(folder / "local_indices.csv") as f:
-        rows = list(csv.DictReader(f))
+    rows, head = _atlas_rows(folder / "local_indices.csv")
     assert len(rows) == 121
-    assert set(rows[0]) == {"x", "y", "z", "reachable", "dynamic", "stiffness", "isotropy"}
+    assert head == ["x [m]", "y [m]", "z [m]", "reachable", "dynamic [kg]", "stiffness [N/m]", "isotropy [–]"]
     assert all(r["z"] == "0.57" and r["reachable"] == "1" for r in rows)
     # the local values of the CSV average to the global indices of `evaluate`
     means = {k: np.mean([float(r[k]) for r in rows]) for k in ("dynamic", "stiffness", "isotropy")}
@@ -115,12 +127,38 @@ def test_atlas_writes_csv_and_pngs(tmp_path, capsys):
     assert not list(folder.glob(".*.tmp"))
 
 
+def test_atlas_has_a_grid_of_its_own(tmp_path, capsys):
+    """By default the atlas is finer than the optimization's sample (81 points
+    per axis against the config's 11), and its mean is close to the global index
+    (the 11 x 11 grid's mean is itself an estimate of the integral mean: 1.2 % apart here)."""
+    rc, _, _ = run_main(capsys, ["atlas", PAPER, "--design", "after", "--out", str(tmp_path), "--no-plots"])
+    assert rc == 0
+    rows, _ = _atlas_rows(tmp_path / "p4s_paper-after" / "local_indices.csv")
+    assert len(rows) == 81 * 81
+    assert np.mean([float(r["stiffness"]) for r in rows]) == pytest.approx(0.352279354, rel=0.02)
+
+
+def test_atlas_of_a_cylinder_keeps_to_the_disc(tmp_path, capsys):
+    """A cylinder workspace is mapped over its disc, not its bounding square."""
+    from optdesign.config import load_config
+
+    rc, _, _ = run_main(capsys, ["atlas", str(ROOT / "configs" / "delta.yaml"), "--out", str(tmp_path), "--no-plots",
+                                 "--resolution", "41"])
+    assert rc == 0
+    cfg = load_config(ROOT / "configs" / "delta.yaml")
+    (folder,) = list(tmp_path.iterdir())
+    rows, head = _atlas_rows(folder / "local_indices.csv")
+    r = np.hypot([float(q["x"]) for q in rows], [float(q["y"]) for q in rows])
+    assert r.max() <= cfg.workspace.radius * (1 + 1e-9) and r.max() > 0.95 * cfg.workspace.radius
+    # the square's corners are gone: the grid points within 20 steps of the axis (Gauss: about pi 20^2)
+    assert len(rows) == pytest.approx(np.pi * 20 ** 2, rel=0.02) and len(rows) < 0.8 * 41 * 41
+
+
 def test_atlas_resolution_and_no_plots(tmp_path, capsys):
     rc, _, _ = run_main(capsys, ["atlas", PAPER, "--design", "before", "--out", str(tmp_path), "--resolution", "5", "--no-plots"])
     assert rc == 0
     folder = tmp_path / "p4s_paper-before"
-    with open(folder / "local_indices.csv") as f:
-        rows = list(csv.DictReader(f))
+    rows, _ = _atlas_rows(folder / "local_indices.csv")
     assert len(rows) == 25
     assert sorted({float(r["x"]) for r in rows}) == pytest.approx([-0.05, -0.025, 0.0, 0.025, 0.05])
     assert not list(folder.glob("*.png"))

@@ -132,7 +132,7 @@ def test_validate_dynamics_command(tmp_path, monkeypatch, capsys):
         assert (tmp_path / "v" / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     model = mujoco.MjModel.from_xml_path(str(tmp_path / "v" / "p4s.xml"))
     assert model.neq == 6 and model.nu == 3
-    assert "max |diff| / peak" in capsys.readouterr().out
+    assert "max diff / peak [–]" in capsys.readouterr().out
     rc = main(["validate-dynamics", cfg, "--design", "nope"])
     assert rc == 2
     assert capsys.readouterr().err.count("\n") == 1

@@ -225,7 +225,7 @@ def test_configs_evaluate_and_atlas(tmp_path):
     assert 0 < res["dexterity"]["max"] <= 0.5 + 1e-12      # 1/cond_F <= 1/n for a 2x2 matrix
     out = write_atlas(cfg, "paper", tmp_path / "atlas", resolution=9, plots=False)
     lines = (out / "local_indices.csv").read_text().splitlines()
-    assert lines[0].startswith("s_theta,s_psi,reachable") and len(lines) == 82
+    assert lines[0].startswith("s_theta [–],s_psi [–],reachable") and len(lines) == 82   # sines: dimensionless
     opt = load_config(CONFIGS / "ups_upr_s_opt.yaml")
     assert evaluate_named(opt, ["paper"])["paper"]["reachable_fraction"] == 1.0
     # the optimization workspace |sines| <= 0.5 holds no singularity of the paper's design:

@@ -186,6 +186,30 @@ def summary_tables(rows: Sequence[dict]) -> tuple[str, str]:
     return buf.getvalue(), "\n".join(md) + "\n"
 
 
+#: a weighted-sum objective this close to 0 is 0 (round-off of the normalization)
+ROUND_OFF = 1e-12
+
+
+def _quantity_labels(rows: Sequence[dict], qs: Sequence[str]) -> dict[str, str]:
+    """Each quantity with its unit, from the config of the first run folder
+    that can be read (the name alone where none can)."""
+    out = {q: q for q in qs}
+    out["objective"] = "objective f [–]"
+    for r in rows:
+        try:
+            from ..optimize.runner import config_of_folder
+            from ..units import index_label
+
+            cfg = config_of_folder(r["folder"])
+        except Exception:  # noqa: BLE001 - a folder that cannot be read: the next one
+            continue
+        for q in qs:
+            if q in cfg.indices:
+                out[q] = index_label(cfg, q)
+        break
+    return out
+
+
 def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
     """PNG of the spread across seeds: one panel per quantity (objective and
     each global index), one column of points per resolved config (one point
@@ -203,30 +227,39 @@ def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
     ncol = 2 if len(qs) > 3 else len(qs)
     nrow = math.ceil(len(qs) / ncol)
     panel_w = max(4.0, 1.1 * len(groups) + 1.0)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_w * ncol, 3.4 * nrow + 0.6), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_w * ncol, 3.4 * nrow + 0.6), squeeze=False,
+                             layout="constrained")
     # a sweep's runs are told apart by their swept values, other configs by name
     labels = [g["sweep"].replace(", ", "\n") if g["sweep"] else str(g["config"]) for g in groups]
     if len(set(labels)) < len(labels):
         labels = [f"{g['config']}" + (f"\n{g['sweep']}" if g["sweep"] else "") for g in groups]
     rotate = 30 if len(groups) > 6 else 0
+    names = _quantity_labels(rows, qs)
     for ax in axes.flat[len(qs):]:
         ax.set_visible(False)
     for ax, q in zip(axes.flat, qs):
+        # the weighted sum is >= 0 with 0 its best: values within round-off of 0 are 0
+        # (an axis scaled to 1e-18 would show noise as a spread)
+        tiny = q == "objective"
+        clean = (lambda v: np.where(np.abs(v) < ROUND_OFF, 0.0, v)) if tiny else (lambda v: v)
+        rounded = False
         for i, g in enumerate(groups):
-            vals = _finite(r.get(q) for r in rows if (r.get("config"), r.get("config_key")) == (g["config"], g["config_key"]))
-            if len(vals) == 0:
+            raw = _finite(r.get(q) for r in rows if (r.get("config"), r.get("config_key")) == (g["config"], g["config_key"]))
+            if len(raw) == 0:
                 continue
+            vals = clean(raw)
+            rounded = rounded or bool(np.any(vals != raw))
             jitter = np.linspace(-0.12, 0.12, len(vals)) if len(vals) > 1 else np.zeros(1)
             ax.plot(i + jitter, vals, "o", ms=4, alpha=0.6, color="tab:blue")
-            s = g["stats"][q]
-            ax.errorbar([i + 0.3], [s["mean"]], yerr=[[s["std"]], [s["std"]]], fmt="s", color="tab:red", ms=5, capsize=3)
-        ax.set_title(q)
+            mean, sd = float(np.mean(vals)), float(np.std(vals, ddof=1)) if len(vals) > 1 else 0.0
+            ax.errorbar([i + 0.3], [mean], yerr=[[sd], [sd]], fmt="s", color="tab:red", ms=5, capsize=3)
+        ax.set_title(names[q] + (f"\n(|values| < {ROUND_OFF:g} shown as 0: round-off)" if rounded else ""), fontsize=9)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
         ax.set_xticks(range(len(groups)))
         ax.set_xticklabels(labels, rotation=rotate, ha="right" if rotate else "center", fontsize=7)
         ax.set_xlim(-0.6, len(groups) - 0.4)
         ax.grid(alpha=0.3)
     fig.suptitle("spread across seeds (points: runs; square and bar: mean ± std)", fontsize=9)
-    fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)

@@ -92,3 +92,22 @@ def design_names(cfg: Config, requested: Sequence[str] | None) -> list[str]:
             raise UsageError(f"{cfg.source}: designs: no design named {shorten(n)}{suggest(n, cfg.designs)}; "
                              f"the config has {', '.join(cfg.designs)}")
     return list(requested)
+
+
+def json_text(obj) -> str:
+    """Strict JSON (a number that is not finite becomes null) for ``--json``."""
+    import json
+    import math
+
+    def clean(o):
+        if isinstance(o, float) and not math.isfinite(o):
+            return None
+        if isinstance(o, dict):
+            return {str(k): clean(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [clean(v) for v in o]
+        if isinstance(o, (str, int, float, bool)) or o is None:
+            return o
+        return str(o)
+
+    return json.dumps(clean(obj), indent=2, allow_nan=False)

@@ -11,7 +11,7 @@ def register(sub):
     p.add_argument("config", help="YAML config file")
     p.add_argument("--design", action="append", metavar="NAME", help="named design (repeatable; default: all)")
     p.add_argument("--resolution", type=int, default=None, metavar="N",
-                   help="grid points per axis (default: the config's grid, or 41)")
+                   help="grid points per plotted axis (default: 81; the atlas has a grid of its own)")
     p.add_argument("--out", default="indices", metavar="DIR", help="parent folder (default: indices)")
     p.add_argument("--no-plots", action="store_true", help="write the CSV only")
     p.set_defaults(func=run)
@@ -19,7 +19,7 @@ def register(sub):
 
 def run(args) -> int:
     from ._common import UsageError, check_out_root, design_names, make_out_root, open_config
-    from ..atlas import atlas_plane, write_atlas
+    from ..atlas import check_atlas_size, write_atlas
     from ..names import OutsideRoot
 
     if args.resolution is not None and not 2 <= args.resolution <= 2000:
@@ -27,7 +27,7 @@ def run(args) -> int:
     check_out_root(args.out)
     cfg = open_config(args.config)
     names = design_names(cfg, args.design)
-    atlas_plane(cfg, args.resolution)          # its size is checked before anything is written
+    check_atlas_size(cfg, args.resolution)     # its size is checked before anything is written
     make_out_root(args.out)
     for name in names:
         try:

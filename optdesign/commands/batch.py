@@ -32,6 +32,8 @@ def register(sub):
                    help="seconds to wait for the Dask scheduler and its first worker (default 10)")
     p.add_argument("--dry-run", action="store_true",
                    help="validate the files and list the planned runs (new, resume or done) without running them")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (every run's row and the statistics per config) instead of tables")
     p.add_argument("--retries", type=int, default=2, metavar="R",
                    help="resubmissions of runs lost with a dead worker or failed on it (default 2)")
     p.set_defaults(func=run)
@@ -124,28 +126,75 @@ def _run(args) -> int:
                 raise UsageError(str(exc)) from None
         where = f"{args.jobs or 2} local workers" if args.backend == "local" else f"Dask cluster {args.scheduler}"
         print(f"batch: {len(tasks)} runs ({len(args.configs)} files) on {where} -> {args.out}/", file=sys.stderr)
+        from ..optimize.progress import COMPILE_NOTICE, CountProgress
+
+        progress = CountProgress(len(tasks), enabled=None if not args.json else False)
+        if progress.enabled and _cold_kernels():
+            progress.say(f"batch: the first runs may be slow: {COMPILE_NOTICE}", file=sys.stderr)
 
         def show(row):
-            if row.get("status") != "complete":
-                print(f"{row['folder']}: {row.get('status')} seed={row['seed']} ({row.get('error', '')})", flush=True)
+            progress.done(counted=row.get("this_batch") != "done")
+            if args.json:
                 return
-            opt = ", ".join(f"{k[4:]}={v:.6g}" for k, v in row.items() if k.startswith("opt_"))
-            print(f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective={row['objective']:.6g} at {opt}",
-                  flush=True)
+            progress.say(_row_line(row))
 
         try:
             rows = run_batch(tasks, args.out, args.jobs, backend=args.backend, scheduler=args.scheduler,
                              on_result=show, retries=args.retries, timeout=args.timeout, client=client)
         except BackendError as exc:
             raise UsageError(str(exc)) from None
+        finally:
+            progress.close()
     finally:
         if client is not None:
             client.close()
     csv_path, md_path = summarize(rows, args.out)
-    print(md_path.read_text())
-    print(f"summary: {csv_path}, {md_path}, {md_path.with_suffix('.png')}")
+    if args.json:
+        _print_json(rows, tasks, csv_path, md_path)
+    else:
+        from ..tables import print_text
+
+        print_text(md_path.read_text())
+        print(f"summary: {csv_path}, {md_path}, {md_path.with_suffix('.png')}")
     failed = [r for r in rows if r.get("status") != "complete"]
     if failed:
         print(f"optdesign: {len(failed)} of {len(rows)} runs did not complete (see the table)", file=sys.stderr)
         return 1
     return 0
+
+
+def _cold_kernels() -> bool:
+    """Whether a compiled kernel module the mechanisms registered has no cache yet."""
+    from ..fast import KernelModule, kernel_cache_present
+
+    return any(not kernel_cache_present(k.name) for k in KernelModule.instances)
+
+
+def _row_line(row: dict) -> str:
+    """A finished run in one line: the optimum in its config's units."""
+    if row.get("status") != "complete":
+        return f"{row['folder']}: {row.get('status')} seed={row['seed']} ({row.get('error', '')})"
+    opt = ", ".join(f"{k[4:]}={v:.6g}" for k, v in row.items() if k.startswith("opt_"))
+    try:
+        from pathlib import Path
+
+        from ..optimize.runner import config_of_folder
+        from ..units import design_text
+
+        cfg = config_of_folder(Path(row["folder"]))
+        opt = design_text(cfg, {k[4:]: v for k, v in row.items() if k.startswith("opt_")})
+    except Exception:  # noqa: BLE001 - the SI values then, named as such
+        opt += " (SI)"
+    f = row["objective"]
+    f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
+    return f"{row['folder']}: {row['this_batch']} seed={row['seed']} objective f={f_txt} at {opt}"
+
+
+def _print_json(rows, tasks, csv_path, md_path) -> None:
+    from ..batch import group_stats
+    from ._common import json_text
+
+    out = {"runs": len(rows), "complete": sum(1 for r in rows if r.get("status") == "complete"),
+           "summary": {"csv": str(csv_path), "markdown": str(md_path), "plot": str(md_path.with_suffix(".png"))},
+           "rows": rows, "groups": group_stats(rows)}
+    print(json_text(out))

@@ -252,7 +252,7 @@ def reproduce_time(min_points: int, pareto: bool = True) -> dict:
 
 def run(args) -> int:
     from ._common import UsageError, open_config
-    from ..tables import table
+    from ..tables import print_table
 
     if args.points < 1 or args.designs < 1 or args.loop_points < 1 or args.fk_poses < 1 or args.repeat < 1:
         raise UsageError("bench: --points, --designs, --loop-points, --fk-poses and --repeat must be positive")
@@ -288,7 +288,7 @@ def run(args) -> int:
         rows.append(["fused kernel alone", f"{args.designs} x {args.points}", f"{kr:,.0f}", f"{kr / npr:,.0f}"])
     print("\nlocal indices (dynamic, stiffness, isotropy) per workspace point, best of "
           f"{args.repeat}:")
-    print(table(["path", "designs x points", "points/s", "vs numpy"], rows))
+    print_table(["path", "designs x points", "points/s", "vs numpy"], rows)
     if loc.get("kernel"):
         print(f"first fast call (kernel load or compile): {loc['fast']['first_call_seconds']:.2f} s; "
               f"points handed to LAPACK (cond(J) >= 1000): {100 * loc['kernel']['lapack_fraction']:.2f}%")
@@ -299,7 +299,7 @@ def run(args) -> int:
         rows.append(["compiled forward (public API)", f"{fk['poses']}", f"{ff['poses_per_s']:,.0f}",
                      f"{ff['poses_per_s'] / fk['numpy']['poses_per_s']:,.0f}", f"{ff['max_error_m']:.1e}"])
     print("\nforward kinematics:")
-    print(table(["path", "poses", "poses/s", "vs numpy", "max error (m)"], rows))
+    print_table(["path", "poses", "poses/s", "vs numpy", "max error [m]"], rows)
     if "reproduce" in res:
         r = res["reproduce"]
         runs = ", ".join(f"{x['seconds']:.2f} s (--jobs {x['jobs']})" for x in r["runs"])

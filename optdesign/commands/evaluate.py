@@ -17,7 +17,7 @@ def register(sub):
 
 def comparison_rows(cfg, results: dict) -> list[list[str]]:
     """Rows: design, index, mean, ± its error estimate (the index's units),
-    paper value, relative difference."""
+    reference value, relative difference."""
     from ..tables import fmt, fmt_g
 
     rows = []
@@ -44,7 +44,7 @@ def spread_rows(cfg, results: dict) -> list[list[str]]:
 
 def run(args) -> int:
     from ._common import design_names, open_config
-    from ..tables import table
+    from ..tables import print_table
     from ..evaluate import error_method, evaluate_named, workspace_of
 
     cfg = open_config(args.config)
@@ -64,11 +64,23 @@ def run(args) -> int:
             out["designs"][n] = d
         print(json.dumps(out, indent=2, allow_nan=True))
         return 0
+    from ..units import index_label
+
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
     print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
-    print(table(["design", "index", "mean", "±", "paper", "rel. diff"], comparison_rows(cfg, res)))
+    headers = ["design", "index", "mean", "±", "reference", "rel. diff"]
+    rows = comparison_rows(cfg, res)
+    for r in rows:   # the index with its unit (SI)
+        r[1] = index_label(cfg, r[1])
+    if not cfg.reference:   # no reference values: no columns for them
+        keep = [i for i, h in enumerate(headers) if h not in ("reference", "rel. diff")]
+        headers, rows = [headers[i] for i in keep], [[r[i] for i in keep] for r in rows]
+    print_table(headers, rows)
     print()
-    print(table(["design", "index", "min over W", "max over W", "std over W"], spread_rows(cfg, res)))
+    spread = spread_rows(cfg, res)
+    for r in spread:
+        r[1] = index_label(cfg, r[1])
+    print_table(["design", "index", "min over W", "max over W", "std over W"], spread)
     print()
-    print(table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()]))
+    print_table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()])
     return 0

@@ -47,7 +47,10 @@ def run(args) -> int:
             rec.update(_jacobians(mech, v))
         print(json.dumps(rec))
     elif ok:
-        print("  ".join(f"{n} = {x:.12g}" for n, x in zip(names_out, out)))
+        from ..units import actuator_unit, pose_unit
+
+        units = [actuator_unit(cfg)] * len(names_out) if args.kin == "ik" else [pose_unit(cfg, a) for a in names_out]
+        print("  ".join(f"{n} = {x:.12g}" + ("" if u == "1" else f" {u}") for n, x, u in zip(names_out, out, units)))
     else:
         what = "this pose" if args.kin == "ik" else "these actuator values"
         print(f"unreachable: no real solution for {what} ({design} design)")

@@ -19,22 +19,31 @@ def register(sub):
 def run(args) -> int:
     from ._common import open_config
     from .run import execute
-    from ..optimize.report import index_table, parameter_table
+    from ..optimize.report import index_table, parameter_table, reference_table
+    from ..tables import print_text
 
     cfg = open_config(args.config)
 
     def show(res):
         r = res.results
         print()
-        print("Table 3 (design parameters):")
-        print(parameter_table(cfg, r))
+        print("Table 3 (design parameters):" if cfg.reference else "Design parameters:")
+        print_text(parameter_table(cfg, r))
         print()
-        print("Global indices beside the paper's:")
-        print(index_table(cfg, r))
-        paper_f = r.get("reference", {}).get("after", {}).get("objective")
+        print("Global indices (means over W):")
+        print_text(index_table(cfg, r))
+        ref = reference_table(cfg, r)
+        if ref:
+            print()
+            print("Beside the paper's values (the config's reference):")
+            print_text(ref)
+        ref_f = [f"{v['objective']} ({n})" for n, v in (r.get("reference") or {}).items()
+                 if isinstance(v, dict) and isinstance(v.get("objective"), (int, float))]
         print()
-        print(f"weighted-sum objective at our optimum: {r['objective']:.4f}"
-              + (f" (paper f_min = {paper_f}; not comparable without the paper's bounds, see docs/reproduction.md)" if paper_f else ""))
-        print(f"full report: {res.folder.path / 'results.md'}")
+        f = r["objective"]
+        print(f"weighted-sum objective f at the optimum: {'0 (to round-off)' if abs(f) < 1e-12 else f'{f:.4f}'}"
+              + (f" (paper f_min = {', '.join(ref_f)}; not comparable without the paper's bounds, see docs/reproduction.md)"
+                 if ref_f else ""))
+        print(f"full report: {res.folder.path / 'results.md'} and {res.folder.path / 'report.html'}")
 
     return execute(args, after=show, cfg=cfg)

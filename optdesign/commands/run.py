@@ -16,9 +16,33 @@ def register(sub):
     p.add_argument("--name", default=None, help="run folder name prefix (default: the config's name)")
     p.add_argument("--no-pareto", action="store_true", help="skip the NSGA-II/III Pareto runs")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (the optimum in the config's units and SI, the global indices, "
+                        "the files) instead of the summary line")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="processes running the GA stages at once (default: the CPUs available); results do not depend on it")
     p.set_defaults(func=run)
+
+
+def run_json(res, cfg=None) -> dict:
+    """A finished run as JSON: what a script reads from it."""
+    from ..optimize.runner import config_of_folder
+    from ..units import index_unit, variable_unit
+
+    cfg = cfg or config_of_folder(res.folder.path)
+    r, path = res.results, res.folder.path.resolve()
+    out = {"folder": str(path), "status": r["status"], "config": cfg.name, "mechanism": cfg.mechanism,
+           "seed": r["seed"], "objective": r["objective"],
+           "optimum": {k: {"value": dv.display(r["optimum"][k]), "unit": variable_unit(cfg, k), "si": r["optimum"][k],
+                           "free": dv.free} for k, dv in cfg.design_variables.items()},
+           "global_indices": {k: {"mean": v, "unit": index_unit(cfg, k), "sense": cfg.indices[k].sense}
+                              for k, v in r["global_indices"].items() if k in cfg.indices},
+           "evaluations": r.get("evaluations"), "wall_time_s": r.get("wall_time_s"),
+           "files": {n: str(path / n) for n in ("results.json", "results.md", "report.html", "optimum.yaml")
+                     if (path / n).exists()}}
+    if r.get("pareto"):
+        out["pareto"] = {k: {"front_size": p["front_size"], "hypervolume": p["hypervolume"]} for k, p in r["pareto"].items()}
+    return out
 
 
 def execute(args, after=None, cfg=None) -> int:
@@ -70,7 +94,12 @@ def execute(args, after=None, cfg=None) -> int:
             print(f"optdesign: run failed: {exc}", file=sys.stderr)
             return 1
         stop.completed = done = True
-        print(summary_line(res))
+        if getattr(args, "json", False):
+            from ._common import json_text
+
+            print(json_text(run_json(res, cfg)))
+        else:
+            print(summary_line(res, cfg))
         if after is not None:
             after(res)
         return 0

@@ -18,6 +18,8 @@ def register(sub):
                    help="where to write summary.* (default: the given folder if it holds run folders, "
                         "else the parent of the first run folder)")
     p.add_argument("--no-plot", action="store_true", help="skip summary.png")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (every run's row and the statistics per config) instead of tables")
     p.set_defaults(func=run)
 
 
@@ -50,7 +52,18 @@ def run(args) -> int:
         out = first.parent if (first / "manifest.json").is_file() else first
     make_out_root(str(out), "--out" if args.out is not None else "RUNS")
     csv_path, md_path = summarize(rows, out, plot=not args.no_plot)
-    print(md_path.read_text())
     png = md_path.with_suffix(".png")
+    if args.json:
+        from ..batch import group_stats
+        from ._common import json_text
+
+        print(json_text({"runs": len(rows), "complete": sum(1 for r in rows if r.get("status") == "complete"),
+                          "summary": {"csv": str(csv_path), "markdown": str(md_path),
+                                      "plot": str(png) if png.exists() and not args.no_plot else None},
+                          "rows": rows, "groups": group_stats(rows)}))
+        return 0
+    from ..tables import print_text
+
+    print_text(md_path.read_text())
     print(f"summary of {len(rows)} runs: {csv_path}, {md_path}" + (f", {png}" if png.exists() and not args.no_plot else ""))
     return 0

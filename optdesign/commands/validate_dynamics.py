@@ -4,7 +4,7 @@ Runs the two comparisons of the mechanism's MuJoCo check (for the 3-P(4S)
 ``optdesign.mechanisms.p4s.mujoco``) on the
 paper's path (x = y = 0.001 sin(40 pi t)) and on a larger one, prints the
 agreement numbers and writes ``forces.png`` (the actuator forces from our
-model and from MuJoCo, as the paper's figures 9 and 10), ``tracking.png``
+model and from MuJoCo, as the 3-P(4S) paper's figures 9 and 10), ``tracking.png``
 (the platform's deviation in MuJoCo's simulation driven by our forces),
 ``summary.json`` and the model ``p4s.xml`` (MJCF, loads in MuJoCo's viewer)
 into DIR (default ``validation/<design>``).
@@ -54,7 +54,7 @@ def run(args) -> int:
 
     from ..io import atomic_write_bytes, atomic_write_json
     from ._common import UsageError, design_names, open_config
-    from ..tables import fmt, table
+    from ..tables import fmt, print_table
 
     _check_args(args)
     cfg = open_config(args.config)
@@ -117,8 +117,8 @@ def run(args) -> int:
         }
     print(f"{cfg.source}: design {args.design}, MuJoCo {mujoco.__version__}, simulation step "
           f"{summary['timestep']:g} s (RK4)")
-    print(table(["path", "peak force (N)", "max |diff| / peak", "loop gap (m)", "unbalanced (N)",
-                 "tracking error (um)", "sim. loop gap (m)"], rows))
+    print_table(["path", "peak force [N]", "max diff / peak [–]", "loop gap [m]", "unbalanced [N]",
+                 "tracking error [µm]", "sim. loop gap [m]"], rows)
 
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -148,22 +148,24 @@ def _forces_figure(results, design) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 3, figsize=(14, 3.6 * len(results)), squeeze=False)
+    fig, axes = plt.subplots(len(results), 3, figsize=(14, 3.6 * len(results) + 0.6), squeeze=False,
+                             layout="constrained")
     for row, (name, (traj, t, inv, _)) in zip(axes, results.items()):
         for k in range(3):
-            row[0].plot(t, inv["ours"][:, k], label=f"l{k + 1}")
-            row[1].plot(t, inv["forces"][:, k], label=f"l{k + 1}")
-            row[2].plot(t, inv["forces"][:, k] - inv["ours"][:, k], label=f"l{k + 1}")
-        row[0].set_title(f"{name}: ours (eq. 23), as fig. 9")
-        row[1].set_title(f"{name}: MuJoCo inverse dynamics, as fig. 10")
-        row[2].set_title(f"{name}: MuJoCo - ours")
-        for ax, lab in zip(row, ("force (N)", "force (N)", "difference (N)")):
-            ax.set_xlabel("t (s)")
+            row[0].plot(t, inv["ours"][:, k], label=f"actuator {k + 1}")
+            row[1].plot(t, inv["forces"][:, k], label=f"actuator {k + 1}")
+            row[2].plot(t, inv["forces"][:, k] - inv["ours"][:, k], label=f"actuator {k + 1}")
+        row[0].set_title(f"{name} path: our model", fontsize=10)
+        row[1].set_title(f"{name} path: MuJoCo inverse dynamics", fontsize=10)
+        row[2].set_title(f"{name} path: MuJoCo − ours", fontsize=10)
+        for ax, lab in zip(row, ("actuator force [N]", "actuator force [N]", "difference [N]")):
+            ax.set_xlabel("t [s]")
             ax.set_ylabel(lab)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
+            ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
+    h, lab = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, lab, loc="outside lower center", ncol=3, fontsize=9, frameon=False)
     fig.suptitle(f"actuator forces, design {design}")
-    fig.tight_layout()
     return _png(fig)
 
 
@@ -173,13 +175,12 @@ def _tracking_figure(results, design) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(results), figsize=(6 * len(results), 3.8), squeeze=False)
+    fig, axes = plt.subplots(1, len(results), figsize=(6 * len(results), 3.8), squeeze=False, layout="constrained")
     for ax, (name, (traj, _, _, sim)) in zip(axes[0], results.items()):
         ax.plot(sim["t"], 1e6 * sim["error"])
-        ax.set_title(f"{name}: {traj.describe()}", fontsize=8)
-        ax.set_xlabel("t (s)")
-        ax.set_ylabel("|platform - commanded| (um)")
+        ax.set_title(f"{name} path: {traj.describe()}", fontsize=8, wrap=True)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("|platform − commanded| [µm]")
         ax.grid(alpha=0.3)
     fig.suptitle(f"MuJoCo simulation driven by our actuator forces, design {design}")
-    fig.tight_layout()
     return _png(fig)

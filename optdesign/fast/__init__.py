@@ -21,7 +21,7 @@ import os
 import warnings
 from contextlib import contextmanager
 
-__all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "KernelModule"]
+__all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "KernelModule", "set_compile_notice", "kernel_cache_present"]
 
 ENV_VAR = "OPTDESIGN_FAST"
 
@@ -61,10 +61,52 @@ def _passive_workers() -> None:
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
+#: called with a kernel module's name before it is first loaded without a cache (see set_compile_notice)
+_compile_notice = None
+
+
+def set_compile_notice(fn):
+    """``fn(module_name)`` is called once, before the first kernel module whose
+    compiled code is not in numba's cache is loaded (its kernels then compile,
+    which takes a while once per machine); None: no notice.  Returns the previous one."""
+    global _compile_notice
+    old, _compile_notice = _compile_notice, fn
+    return old
+
+
+def kernel_cache_present(module_name: str) -> bool:
+    """Whether numba's cache holds index files of the module's kernels (where
+    numba looks: NUMBA_CACHE_DIR, the module's __pycache__, the user's cache
+    folder).  True when this cannot be told (no notice rather than a wrong one)."""
+    try:
+        from importlib.util import find_spec
+        from pathlib import Path
+
+        spec = find_spec(module_name)
+        if spec is None or not spec.origin:
+            return True
+        from numba.core import config
+        from numba.core.caching import _CacheLocator
+        from numba.misc.appdirs import AppDirs
+
+        src = Path(spec.origin)
+        sub = _CacheLocator.get_suitable_cache_subpath(str(src))
+        dirs = [src.parent / "__pycache__", Path(AppDirs(appname="numba", appauthor=False).user_cache_dir) / sub]
+        if config.CACHE_DIR:   # numba then uses that folder alone
+            dirs = [Path(config.CACHE_DIR) / sub]
+        return any(d.is_dir() and any(d.glob(f"{src.stem}.*.nbi")) for d in dirs)
+    except Exception:  # noqa: BLE001
+        return True
+
+
 class KernelModule:
     """A kernel module imported on first use; ``None`` from then on if that failed."""
 
+    #: every kernel module declared so far (their caches tell whether a compile is ahead)
+    instances: list = []
+
     def __init__(self, name: str):
+        KernelModule.instances.append(self)
         self.name = name
         self.module = None
         self.error: BaseException | None = None
@@ -73,6 +115,13 @@ class KernelModule:
         """The module, or None if it cannot be used here."""
         if self.module is None and self.error is None:
             _passive_workers()
+            global _compile_notice
+            if _compile_notice is not None and not kernel_cache_present(self.name):
+                notice, _compile_notice = _compile_notice, None   # once: the other modules follow at once
+                try:
+                    notice(self.name)
+                except Exception:  # noqa: BLE001 - a notice never stops the computation
+                    pass
             try:
                 self.module = importlib.import_module(self.name)
             except Exception as exc:  # numba missing or broken: the numpy path

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 from ..config import Config
 from ..evaluate import Evaluator, workspace_of
+from ..fast import set_compile_notice
 from ..runs import RunFolder
 from .algorithms import build_algorithm
 from .problem import DesignProblem, extra_term, index_term, weighted_sum_term
@@ -94,10 +95,57 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
     problem, gens, factory = stage_problem(cfg, st, lo, hi, evaluator)
     alg, history = run_stage(folder, st.name, problem, factory, gens, stage_seed(seed, i), progress or Progress(False),
                              cfg.optimizer.checkpoint_interval, evaluator.index_names, evaluator.free,
-                             evaluator.index_names + list(evaluator.extra), stop, budget)
-    res = stage_summary(folder, st, alg, problem, evaluator, history)
+                             evaluator.index_names + list(evaluator.extra), stop, budget,
+                             describe=lambda rec: describe_row(cfg, st, rec))
+    res = stage_summary(folder, st, alg, problem, evaluator, history, lambda rows, s: _display(cfg, rows, s))
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
+
+
+def describe_row(cfg: Config, st: Stage, rec: dict) -> str:
+    """A stage's best so far, for its progress line: the index in its own
+    sense and unit, the weighted sum f, or the size of the front."""
+    from ..units import index_text
+
+    if st.kind == "single" and f"best_{st.index}" in rec:
+        return index_text(cfg, st.index, rec[f"best_{st.index}"], 4)
+    if st.kind == "weighted":
+        return _f_text(rec["best_objective"])
+    if "front_size" in rec:
+        return f"{rec['front_size']} non-dominated"
+    return ""
+
+
+def _f_text(f: float) -> str:
+    return "f = 0 (round-off)" if abs(f) < 1e-12 else f"f = {f:.4g}"
+
+
+def describe_result(cfg: Config, st: Stage, res: dict) -> str:
+    """A finished stage's result in a few words (its line in the progress)."""
+    from ..units import index_text
+
+    if st.kind == "single" and res.get("value") is not None:
+        return index_text(cfg, st.index, res["value"], 4)
+    if st.kind == "weighted" and res.get("objective") is not None:
+        return _f_text(res["objective"])
+    if st.kind == "pareto":
+        return f"{res.get('front_size', '?')} non-dominated"
+    return ""
+
+
+def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
+    """(generations, population) of a stage: its share of the run's work."""
+    opt = cfg.optimizer
+    if st.kind == "pareto":
+        return opt.pareto_generations, opt.pareto_population
+    return opt.generations, opt.population
+
+
+def _display(cfg: Config, rows: list, st: Stage | None) -> list:
+    """A stage's rows as its CSV files show them (units, objectives in their own sense)."""
+    from ..units import display_rows
+
+    return display_rows(cfg, rows, (st.index, st.sense) if st is not None and st.kind == "single" else None)
 
 
 def _record(st: Stage, seed: int, i: int):
@@ -105,8 +153,12 @@ def _record(st: Stage, seed: int, i: int):
 
 
 def _stage_in_worker(cfg, path, st, i, lo, hi, seed, ws, stop=None) -> dict:
-    """One stage in a worker process; the main process records it in the manifest."""
-    return execute_stage(cfg, RunFolder(path), st, i, lo, hi, seed, ws, stop=stop, manifest=False)
+    """One stage in a worker process; the main process records it in the manifest
+    (and shows its progress, sent through the pool's queue)."""
+    from .workers import worker_progress
+
+    return execute_stage(cfg, RunFolder(path), st, i, lo, hi, seed, ws, progress=worker_progress(), stop=stop,
+                         manifest=False)
 
 
 @dataclass
@@ -124,6 +176,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     installed here); ``stop_after`` (tests only): interrupt after that many
     generations, as a signal would (the stages then run one by one)."""
     progress, t0 = progress or Progress(False), time.perf_counter()
+    notice = set_compile_notice(progress.compiling if progress.enabled else None)
     wall_before = float(folder.verify_inputs(seed)["wall_time_s"])   # the folder is what it says it is
     folder.update_manifest(status="running")
     own, stop, pool = stop is None, stop or StopRequest(), None
@@ -150,6 +203,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         for i, st in enumerate(plan):
             done = finished_stage(folder, st, stage_seed(seed, i))
             todo.append((i, st)) if done is None else record(st, done)
+        progress.plan([(st.name, *stage_work(cfg, st)) for st in plan], done=list(stages))
 
         def take():
             """The next stage that can start (the weighted sums once the single runs are done), or None."""
@@ -159,7 +213,9 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             return None
 
         pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path,
-                         warm=lambda: evaluator(evaluator.vector(cfg.initial_design())[None, :]))
+                         warm=lambda: evaluator(evaluator.vector(cfg.initial_design())[None, :]),
+                         events=progress.enabled)
+        progress.poll = pool.poll_progress
         report_warm = False
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:
@@ -176,7 +232,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             for (i, st), res in pool.finished():
                 record(st, res)
                 folder.mark_stage_done(st.name, *_record(st, seed, i))
-                progress.note(f"{st.name} done (worker process)")
+                progress.stage_done(st.name, describe_result(cfg, st, res))
             stop.check()
         pool.release()   # the workers exit while the results and the report are written
         stages = {st.name: stages[st.name] for st in plan}
@@ -210,6 +266,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                                wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         raise
     finally:
+        progress.close()
+        set_compile_notice(notice)
         if pool is not None:
             pool.close()
         if own:

@@ -1,49 +1,336 @@
-"""A one-line progress bar per GA stage on a terminal, fed by the stage's callback."""
+"""Progress of a run on a terminal: one line per running stage (in this
+process or a worker process), a line for the whole run (stages done, ETA),
+a line of its own for each finished stage.
+
+Drawn with rich (a live display that redraws in place); every line is cut to
+the terminal's width, so a redraw never leaves a line behind.  Silent when
+the stream is not a terminal.  A worker process reports its stage through a
+queue (:class:`RemoteProgress`); the main process shows it.
+
+The ETA of the run: the work still to do (generations x population of the
+stages not done) at the rate this process has seen so far.
+"""
 from __future__ import annotations
 
 import sys
+import threading
 import time
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "RemoteProgress", "CountProgress", "stage_line", "fit_line", "COMPILE_NOTICE"]
+
+#: said before kernels compile (the first run on a machine)
+COMPILE_NOTICE = "compiling kernels (once per machine, about 15-30 s; later runs load them from the cache)"
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _clock(s: float) -> str:
+    s = max(0, int(round(s)))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def fit_line(parts: list[str], width: int, shrink: int = 0) -> str:
+    """Join ``parts`` with spaces within ``width`` characters: the part at index
+    ``shrink`` (a label) is shortened first (with …), then the line is cut."""
+    line = " ".join(p for p in parts if p)
+    over = len(line) - width
+    if over > 0 and parts[shrink]:
+        keep = max(1, len(parts[shrink]) - over - 1)
+        parts = list(parts)
+        parts[shrink] = parts[shrink][:keep] + "…"
+        line = " ".join(p for p in parts if p)
+    return line if len(line) <= width else line[: max(0, width - 1)] + "…"
+
+
+def stage_line(label: str, gen: int, total: int, best: str, elapsed: float, width: int) -> str:
+    """``label [####....] gen/total best 0:12`` within ``width`` characters (the bar shrinks first)."""
+    tail = f"{gen}/{total}"
+    rest = [label, "", tail, best, _clock(elapsed)]
+    room = width - len(" ".join(p for p in rest if p)) - 3
+    bar_w = max(4, min(24, room))
+    k = int(bar_w * gen / max(total, 1))
+    rest[1] = f"[{'#' * k}{'.' * (bar_w - k)}]"
+    return fit_line(rest, width)
+
+
+class _Stage:
+    def __init__(self, label: str, total: int, done: int, where: str):
+        self.label, self.total, self.gen, self.where = label, total, done, where
+        self.best = ""
+        self.t0 = time.perf_counter()
+        self.first = done
 
 
 class Progress:
-    """A one-line progress bar per GA run on a terminal; silent otherwise."""
+    """A run's progress on a terminal; silent otherwise (see the module docstring)."""
 
     def __init__(self, enabled: bool | None = None, stream=None):
         self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-        self._t0 = 0.0
-
-    def start(self, label: str, total: int, done: int = 0):
-        self.label, self.total = label, total
+        self.enabled = _isatty(self.stream) if enabled is None else bool(enabled)
+        self.poll = None            # callable -> remote events, set by the worker pool
+        self._lock = threading.RLock()
+        self._live = None
+        self._console = None
+        self._stages: dict[str, _Stage] = {}
+        self._local: str | None = None
+        self._plan: dict[str, tuple[int, int]] = {}   # stage -> (position, work)
+        self._done: set[str] = set()
+        self._work_done = 0.0
         self._t0 = time.perf_counter()
-        if done:
-            self.update(done, None)
+        self._describe = None
+        self._pre_done: set[str] = set()
 
-    def update(self, gen: int, best: float | None):
+    # ------------------------------------------------------------------ display
+    def _width(self) -> int:
+        return max(20, self._console.width - 1) if self._console is not None else 79
+
+    def _ensure(self) -> bool:
         if not self.enabled:
-            return
-        width = 24
-        k = int(width * gen / max(self.total, 1))
-        best_txt = "" if best is None else f" best {best:.6g}"
+            return False
+        if self._live is None:
+            from rich.console import Console
+            from rich.live import Live
+
+            self._console = Console(file=self.stream, highlight=False, markup=False, emoji=False, soft_wrap=False)
+            self._live = Live(get_renderable=self._render, console=self._console, auto_refresh=True,
+                              refresh_per_second=4, transient=True, redirect_stdout=False, redirect_stderr=False)
+            self._live.start()
+        return True
+
+    def _render(self):
+        from rich.text import Text
+
+        with self._lock:
+            self._drain()
+            w = self._width()
+            lines = [self._run_line(w)] if self._plan else []
+            for name, s in self._stages.items():
+                label = self._label(name) + (" (worker)" if s.where == "worker" else "")
+                lines.append(stage_line(label, s.gen, s.total, s.best, time.perf_counter() - s.t0, w))
+        return Text("\n".join(lines), no_wrap=True, overflow="ellipsis")
+
+    def _label(self, name: str) -> str:
+        if name in self._plan:
+            return f"[{self._plan[name][0]}/{len(self._plan)}] {name}"
+        return name
+
+    def _progress_work(self) -> float:
+        done = self._work_done
+        for name, s in self._stages.items():
+            pos_work = self._plan.get(name)
+            if pos_work:
+                done += pos_work[1] * (s.gen - s.first) / max(s.total, 1)
+        return done
+
+    def _run_line(self, w: int) -> str:
         el = time.perf_counter() - self._t0
-        self.stream.write(f"\r{self.label:<24} [{'#' * k}{'.' * (width - k)}] {gen}/{self.total}{best_txt} {el:5.1f}s ")
-        self.stream.flush()
+        todo = sum(work for n, (_, work) in self._plan.items() if n not in self._done and n not in self._pre_done)
+        total = todo + self._work_done
+        done = self._progress_work()
+        eta = ""
+        if done > 0 and el > 1.0:
+            eta = f"ETA {_clock(el * max(total - done, 0.0) / done)}"
+        n_done = len(self._done | self._pre_done)
+        pct = f"{100 * done / total:.0f}%" if total > 0 else ""
+        return fit_line([f"run: {n_done}/{len(self._plan)} stages done", pct, f"{_clock(el)} elapsed", eta], w)
+
+    def _print(self, text: str) -> None:
+        if self._ensure():
+            self._console.print(text[: self._width()], no_wrap=True, overflow="ellipsis", crop=True)
+
+    def _drain(self) -> None:
+        if self.poll is None:
+            return
+        for ev in self.poll():
+            kind, name = ev[0], ev[1]
+            if kind == "start":
+                self._stages[name] = _Stage(name, ev[2], ev[3], "worker")
+            elif kind == "update" and name in self._stages:
+                self._stages[name].gen = ev[2]
+                self._stages[name].best = ev[3]
+
+    # ------------------------------------------------------------------ the run
+    def plan(self, stages, done=()) -> None:
+        """The run's stages in order, ``(name, generations, population)``;
+        ``done``: those finished before (a resumed run)."""
+        with self._lock:
+            self._plan = {n: (i + 1, float(g) * float(p)) for i, (n, g, p) in enumerate(stages)}
+            self._pre_done = set(done)
+            self._t0 = time.perf_counter()
+        self._ensure()
+
+    def compiling(self, what: str = "") -> None:
+        """The notice before kernels compile (the first run on a machine)."""
+        self._print(COMPILE_NOTICE)
+
+    def note(self, text: str) -> None:
+        """A line of its own (e.g. a stage a worker process finished)."""
+        self._print(text)
+
+    def stage_done(self, name: str, summary: str = "") -> None:
+        """A stage finished (here or in a worker): its line of its own."""
+        with self._lock:
+            self._drain()
+            s = self._stages.pop(name, None)
+            if name in self._plan and name not in self._done:
+                self._done.add(name)
+                self._work_done += self._plan[name][1] * ((s.total - s.first) / max(s.total, 1) if s else 1.0)
+            el = f" in {_clock(time.perf_counter() - s.t0)}" if s else ""
+            best = summary or (s.best if s else "")
+        where = " (worker)" if s is not None and s.where == "worker" else ""
+        self._print(f"done {self._label(name)}{where}" + (f": {best}" if best else "") + el)
+
+    # ------------------------------------------------------------------ a stage in this process
+    def start(self, label: str, total: int, done: int = 0, describe=None):
+        """A stage starts (``done`` generations already finished: a resumed
+        stage); ``describe(best)`` gives the text of its best value."""
+        with self._lock:
+            self._local = label
+            self._describe = describe
+            self._stages[label] = _Stage(label, total, done, "here")
+        self._ensure()
+
+    def update(self, gen: int, best=None):
+        if not self.enabled or self._local is None:
+            return
+        with self._lock:
+            s = self._stages.get(self._local)
+            if s is not None:
+                s.gen = gen
+                s.best = _best_text(best, self._describe)
 
     def waiting(self, names, since: float):
-        """A status line while this process waits for stages running in worker processes."""
-        if self.enabled:
-            self.stream.write(f"\r{', '.join(names)} (worker process) {time.perf_counter() - since:5.1f}s ")
-            self.stream.flush()
-
-    def note(self, text: str):
-        """A line of its own (e.g. a stage a worker process finished)."""
-        if self.enabled:
-            self.stream.write(f"{text}\n")
-            self.stream.flush()
+        """This process waits for stages in worker processes (the display redraws itself)."""
+        self._ensure()
 
     def finish(self):
+        """The stage of this process ended (finished or interrupted)."""
+        with self._lock:
+            name, self._local = self._local, None
+        if name is not None and name in self._stages:
+            s = self._stages[name]
+            if s.gen >= s.total:
+                self.stage_done(name)
+            else:
+                with self._lock:
+                    self._stages.pop(name, None)
+
+    def close(self) -> None:
+        """Stop the display (the terminal gets its cursor back)."""
+        if self._live is not None:
+            try:
+                self._live.stop()
+            finally:
+                self._live = None
+
+
+def _best_text(best, describe) -> str:
+    if best is None:
+        return ""
+    if describe is not None:
+        return describe(best)
+    return f"best {best:.6g}" if isinstance(best, (int, float)) else str(best)
+
+
+class RemoteProgress:
+    """The progress of a stage in a worker process, sent to the main process
+    through a queue (at most every ``interval`` seconds, and at its start)."""
+
+    enabled = True
+
+    def __init__(self, queue, interval: float = 0.25):
+        self.queue, self.interval = queue, interval
+        self.name = None
+        self.total = 0
+        self._describe = None
+        self._last = 0.0
+
+    def _put(self, ev) -> None:
+        try:
+            self.queue.put_nowait(ev)
+        except Exception:  # noqa: BLE001 - progress only: never stops a stage
+            pass
+
+    def start(self, label: str, total: int, done: int = 0, describe=None):
+        self.name, self._describe, self.total = label, describe, total
+        self._put(("start", label, total, done))
+
+    def update(self, gen: int, best=None):
+        now = time.perf_counter()
+        if now - self._last >= self.interval or gen >= self.total:
+            self._last = now
+            self._put(("update", self.name, gen, _best_text(best, self._describe)))
+
+    def finish(self):
+        pass
+
+    def waiting(self, names, since):
+        pass
+
+    def note(self, text):
+        pass
+
+    def close(self):
+        pass
+
+
+class CountProgress:
+    """``label: done/total runs, elapsed, ETA`` on a terminal (silent
+    otherwise), with a line of its own per finished item above it.  The ETA
+    counts only the items this process has waited for (``counted``)."""
+
+    def __init__(self, total: int, label: str = "batch", enabled: bool | None = None, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = _isatty(self.stream) if enabled is None else bool(enabled)
+        self.total, self.label = int(total), label
+        self.done_n = 0
+        self.counted = 0
+        self.skipped = 0
+        self._t0 = time.perf_counter()
+        self._live = self._console = None
         if self.enabled:
-            self.stream.write("\n")
-            self.stream.flush()
+            from rich.console import Console
+            from rich.live import Live
+
+            self._console = Console(file=self.stream, highlight=False, markup=False, emoji=False, soft_wrap=False)
+            self._live = Live(get_renderable=self._render, console=self._console, auto_refresh=True,
+                              refresh_per_second=2, transient=True, redirect_stdout=False, redirect_stderr=False)
+            self._live.start()
+
+    def _render(self):
+        from rich.text import Text
+
+        w = max(20, self._console.width - 1)
+        el = time.perf_counter() - self._t0
+        left = self.total - self.done_n
+        eta = f"ETA {_clock(el * left / self.counted)}" if self.counted and left else ""
+        k = int(12 * self.done_n / max(self.total, 1))
+        line = fit_line([f"{self.label}:", f"[{'#' * k}{'.' * (12 - k)}]", f"{self.done_n}/{self.total} runs done",
+                         f"{_clock(el)} elapsed", eta], w, shrink=0)
+        return Text(line, no_wrap=True, overflow="ellipsis")
+
+    def say(self, text: str, file=None) -> None:
+        """A line of its own: above the counter on the terminal, else to ``file`` (stdout)."""
+        out = file or sys.stdout
+        if self.enabled and _isatty(out):
+            self._console.print(text, overflow="fold", crop=True)   # folded to the width, never cut
+        else:
+            print(text, file=out, flush=True)
+
+    def done(self, counted: bool = True) -> None:
+        """An item finished (``counted``: it ran in this process's wait, not skipped)."""
+        self.done_n += 1
+        if counted:
+            self.counted += 1
+
+    def close(self) -> None:
+        if self._live is not None:
+            try:
+                self._live.stop()
+            finally:
+                self._live = None

@@ -45,13 +45,16 @@ def population_rows(evaluator, problem, pop) -> list[dict]:
     return rows
 
 
-def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, history: list) -> dict:
+def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, history: list, display=None) -> dict:
     """Write a finished stage's history.csv, population.csv (and front CSV)
-    and return its result (the caller writes result.json)."""
+    and return its result (the caller writes result.json).  ``display(rows,
+    stage)``: the rows as the CSV files show them (units, own sense); the
+    result keeps the internal rows (SI, minimized objectives)."""
+    show = display or (lambda rows, st: rows)
     folder.stage_dir(stage.name)
-    folder.write_text(f"stages/{stage.name}/history.csv", rows_csv(history))
+    folder.write_text(f"stages/{stage.name}/history.csv", rows_csv(show(history, stage)))
     pop_rows = population_rows(evaluator, problem, algorithm.pop)
-    folder.write_text(f"stages/{stage.name}/population.csv", rows_csv(pop_rows))
+    folder.write_text(f"stages/{stage.name}/population.csv", rows_csv(show(pop_rows, None)))
     res = {"stage": stage.name, "kind": stage.kind, "generations": len(history),
            "evaluations": int(algorithm.evaluator.n_eval)}
     if stage.kind in ("single", "weighted"):
@@ -69,7 +72,7 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
         opt = algorithm.opt
         opt = opt[opt.get("CV")[:, 0] <= 0]
         rows = population_rows(evaluator, problem, opt)
-        folder.write_text(f"{stage.name}.csv", rows_csv(rows))
+        folder.write_text(f"{stage.name}.csv", rows_csv(show(rows, None)))
         res.update({"front_size": len(opt), "front": rows, "terms": [t.label() for t in problem.terms]})
     return res
 

@@ -10,11 +10,18 @@ from .pipeline import PipelineResult, run_pipeline
 from .progress import Progress
 from .workers import StopRequest
 
-__all__ = ["start_run", "resume_run", "summary_line", "config_text"]
+__all__ = ["start_run", "resume_run", "summary_line", "config_text", "config_of_folder"]
 
 
 def config_text(cfg: Config) -> str:
-    """The text of the config as run (the file as given)."""
+    """The text of the config as run (the file as given; for a config built
+    from a mapping in Python, that mapping as YAML, which reads back to the same config)."""
+    if cfg.text is not None:
+        return cfg.text
+    if cfg.source.startswith("<"):   # config_from_dict / parse_config of a text without a file
+        from ..config.yamlsafe import dump
+
+        return dump(cfg.raw, sort_keys=False)
     src = Path(cfg.source)
     if src.exists():
         return src.read_text()
@@ -59,9 +66,27 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
                         jobs=jobs, stop=stop)
 
 
-def summary_line(res: PipelineResult) -> str:
+def config_of_folder(path: str | os.PathLike) -> Config:
+    """The config a run folder was run with (its config.yaml, the safe loader)."""
+    folder = RunFolder(path)
+    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"))
+    name = folder.read_manifest(strict=False).get("config_name")
+    if isinstance(name, str) and name:
+        cfg.name = name
+    return cfg
+
+
+def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
+    """One line: the run folder, its status, f, the global indices and the
+    optimum (in the config's units with the unit named)."""
+    from ..units import design_text, index_text
+
     r = res.results
-    opt = ", ".join(f"{k}={v:.6g}" for k, v in r["optimum"].items())
-    idx = ", ".join(f"{k}={v:.5g}" for k, v in r["global_indices"].items())
-    return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective={r['objective']:.6g} "
+    if cfg is None:
+        cfg = config_of_folder(res.folder.path)
+    opt = design_text(cfg, r["optimum"]) or "no free variable"
+    idx = ", ".join(index_text(cfg, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
+    f = r["objective"]
+    f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
+    return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective f={f_txt} "
             f"[{idx}] at {opt} ({r.get('evaluations', '?')} evaluations, {r.get('wall_time_s', '?')} s)")

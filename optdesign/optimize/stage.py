@@ -83,7 +83,7 @@ class StageCallback(Callback):
             # pymoo counts this generation up after the callback: the next one runs n_iter + 1
             self.save(algorithm, self.history, algorithm.n_iter + 1)
             self.last_save = time.perf_counter()
-        self.progress.update(rec["generation"], rec.get("best_objective"))
+        self.progress.update(rec["generation"], rec)
         if stopping:
             self.progress.finish()
             if self.stop is not None:
@@ -91,10 +91,19 @@ class StageCallback(Callback):
             raise Interrupted(signal.SIGTERM)
 
 
+def describe_best(rec: dict) -> str:
+    """The progress text of a history row (without the config: no units)."""
+    if "front_size" in rec:
+        return f"{rec['front_size']} non-dominated"
+    b = rec.get("best_objective")
+    return "" if b is None else f"best {b:.6g}"
+
+
 def run_stage(folder: RunFolder, name: str, problem, factory, generations: int, seed: int, progress,
-              interval: float, index_names, free, value_names, stop=None, budget=None):
+              interval: float, index_names, free, value_names, stop=None, budget=None, describe=None):
     """Run (or resume from its checkpoint) one stage; returns the finished
-    algorithm and the history rows."""
+    algorithm and the history rows.  ``describe(row)``: the progress text of
+    a generation's history row."""
     algorithm, inner = factory()
     callbacks = [inner] if inner is not None else []
     columns = history_columns(problem, index_names, free)
@@ -112,7 +121,7 @@ def run_stage(folder: RunFolder, name: str, problem, factory, generations: int, 
         except CheckpointError as exc:
             p = folder.checkpoint_path(name)
             raise RunFolderError(f"{p}: corrupted checkpoint ({exc}); delete {p.parent} to restart that stage") from None
-    progress.start(name, generations, len(cb.history))
+    progress.start(name, generations, len(cb.history), describe or describe_best)
     algorithm.run()
     progress.finish()
     return algorithm, cb.history

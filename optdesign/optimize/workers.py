@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Callable
 
 __all__ = ["Interrupted", "StopRequest", "StagePool", "STOP_FILE", "default_jobs", "set_kernel_threads",
-           "warm_kernels", "warm_plots"]
+           "warm_kernels", "warm_plots", "worker_progress"]
 
 #: written into the run folder by the main process to stop its stage workers
 STOP_FILE = ".stop"
@@ -138,9 +138,24 @@ def warm_plots() -> bool:
 
 # ---------------------------------------------------------------------- worker side
 _busy = False
+_events = None   # the queue the worker's stages report their progress to (None: no report)
 
 
-def _worker_init(parent: int) -> None:
+def worker_progress():
+    """The progress of a stage in this worker process (sent to the main
+    process), or None when the main process shows none."""
+    if _events is None:
+        return None
+    from .progress import RemoteProgress
+
+    return RemoteProgress(_events)
+
+
+def _worker_init(parent: int, events=None) -> None:
+    global _events
+    _events = events
+    if events is not None:
+        events.cancel_join_thread()   # progress only: a worker's exit never waits for it
     # a Ctrl-C on the terminal reaches every process of the group: an idle
     # worker ignores it, a busy one stops at its generation boundary (its
     # task installs a StopRequest)
@@ -183,19 +198,22 @@ def _in_worker(fn: Callable, stop_file: str, parent: int, args: tuple):
 class StagePool:
     """Worker processes for stages (none if ``workers`` is 0)."""
 
-    def __init__(self, workers: int, folder: Path, warm: Callable[[], None] | None = None):
+    def __init__(self, workers: int, folder: Path, warm: Callable[[], None] | None = None, events: bool = False):
         self.workers = max(0, int(workers))
         self.stop_file = Path(folder) / STOP_FILE
         self.running: dict = {}
         self.pool = None
         self.threads = None
+        self.events = None   # the workers' progress reports (``events``: wanted)
         if self.workers:
             import multiprocessing as mp
             from concurrent.futures import ProcessPoolExecutor
 
+            ctx = mp.get_context("spawn")
+            self.events = ctx.Queue() if events else None
             self.threads = set_kernel_threads(1)
-            self.pool = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
-                                            initializer=_worker_init, initargs=(os.getpid(),))
+            self.pool = ProcessPoolExecutor(self.workers, mp_context=ctx,
+                                            initializer=_worker_init, initargs=(os.getpid(), self.events))
             for _ in range(self.workers):  # start the workers (their imports) now
                 self.pool.submit(_worker_ready)
             if warm is not None:
@@ -223,6 +241,20 @@ class StagePool:
             shown = True
         if shown:
             progress.finish()
+
+    def poll_progress(self) -> list:
+        """The progress reports the workers sent since the last call."""
+        out = []
+        if self.events is None:
+            return out
+        import queue
+
+        try:
+            while len(out) < 10_000:
+                out.append(self.events.get_nowait())
+        except (queue.Empty, OSError, ValueError, EOFError):
+            pass
+        return out
 
     def finished(self) -> list:
         """``(key, result)`` of the stages the workers finished (a worker's error is raised)."""
@@ -253,6 +285,10 @@ class StagePool:
     def close(self) -> None:
         if self.pool is not None:
             self.pool.shutdown(wait=False, cancel_futures=True)
+        if self.events is not None:
+            self.events.close()
+            self.events.cancel_join_thread()
+            self.events = None
         if self.threads is not None:
             set_kernel_threads(self.threads)
         try:

@@ -16,7 +16,7 @@ from .page import Page
 from ..runs import RunFolderError
 from .rundata import RunData, load_run
 from .tables import html_table, objective_text
-from .units import DIMENSIONLESS, index_label, index_unit, objective_unit, variable_unit
+from ..units import DIMENSIONLESS, index_label, index_unit, objective_unit, variable_unit
 
 __all__ = ["build_compare", "write_compare_html"]
 

@@ -15,7 +15,7 @@ from plotly.subplots import make_subplots
 from ..evaluate import mechanism_class
 from .atlas import AtlasMap
 from .rundata import Front, RunData
-from .units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
+from ..units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
 
 __all__ = ["TEMPLATE", "fmt", "matrix_trace", "style_matrix", "convergence_figures", "front_splom",
            "front_parcoords", "atlas_figures", "design_points", "hover_lines", "objective_sense"]
@@ -167,7 +167,9 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                 k = r["index"]
                 flip = -1.0 if r.get("sense") == "max" else 1.0
                 best = _col(rows, f"best_{k}") if f"best_{k}" in rows[0] else flip * _col(rows, "best_objective")
-                mean = flip * _col(rows, "mean_objective")
+                # the history shows the population mean in the index's own sense (mean_<k>);
+                # a folder of the previous format has the minimized objective's mean
+                mean = _col(rows, f"mean_{k}") if f"mean_{k}" in rows[0] else flip * _col(rows, "mean_objective")
                 ylab = index_label(cfg, k)
             else:
                 best, mean = _col(rows, "best_objective"), _col(rows, "mean_objective")
@@ -209,7 +211,10 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                 y, ylab = _col(rows, "front_size"), "designs"
             else:
                 k = t.lstrip("-")
-                y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(cfg, k)[1]
+                if f"best_{t}" in rows[0]:   # the previous format: the minimized objective, SI
+                    y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(cfg, k)[1]
+                else:                        # own sense, shown units
+                    y = _col(rows, f"best_{k}")
                 ylab = index_label(cfg, k)
             fig.add_trace(go.Scatter(x=g, y=y, mode="lines", showlegend=False, line=dict(color=COLORS[i % len(COLORS)]),
                                      hovertemplate="generation %{x}<br>%{y:.5g}<extra></extra>"), row=row, col=col)

@@ -12,7 +12,7 @@ from .page import Page, plotly_js_version
 from .rundata import RunData, load_run
 from .tables import (index_table, manifest_table, normalization_table, objective_text, optimum_table,
                      placement_table, reference_table)
-from .units import index_unit, variable_unit
+from ..units import index_unit, variable_unit
 
 __all__ = ["build_report", "write_report_html", "REPORT_NAME"]
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..config import Config, parse_config
 from ..runs import RunFolder, RunFolderError
+from ..units import strip_unit
 
 __all__ = ["RunData", "Front", "load_run", "MAX_FILE_BYTES"]
 
@@ -144,17 +145,20 @@ def load_run(path) -> RunData:
             data.stages[s] = _read_json(d / "result.json")
         if (d / "history.csv").is_file():
             head, arr = _read_csv(d / "history.csv")
+            head = [strip_unit(h) for h in head]   # 'best_stiffness [N/m]' -> 'best_stiffness'
             data.history[s] = [dict(zip(head, row)) for row in arr]
     for s, r in data.stages.items():
         if r.get("kind") != "pareto":
             continue
         p = root / f"{s}.csv"
         terms = r.get("terms") if isinstance(r.get("terms"), list) else None
-        if p.is_file():
-            head, arr = _read_csv(p)
-        elif isinstance(r.get("front"), list) and r["front"] and isinstance(r["front"][0], dict):
+        # the stage's result holds the front as the optimizer saw it (SI, minimized
+        # objectives); the CSV file shows it in the config's units
+        if isinstance(r.get("front"), list) and r["front"] and isinstance(r["front"][0], dict):
             head = list(r["front"][0])
             arr = np.array([[_num(row.get(h)) for h in head] for row in r["front"] if isinstance(row, dict)])
+        elif p.is_file():
+            head, arr = _read_csv(p)
         else:
             continue
         data.fronts[s] = _front(s, head, arr, cfg, terms)

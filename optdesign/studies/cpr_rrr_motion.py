@@ -70,44 +70,45 @@ def plot_motion_example(path, t=None, **design):
     if t is None:
         t = np.linspace(0.0, P["duration"], P["steps"] + 1)
     mp = motion_profile(t, **design)
-    fig, axs = plt.subplots(2, 3, figsize=(13, 7))
+    fig, axs = plt.subplots(2, 3, figsize=(13, 7.4), layout="constrained")
     mm = 1e3
-    rows = [("displacement (mm)", mp["X"], None), ("velocity (mm/s)", mp["V"], mp["V_from_rotary"]),
-            ("acceleration (mm/s$^2$)", mp["A"], mp["A_from_rotary"])]
+    rows = [("displacement [mm]", mp["X"], None), ("velocity [mm/s]", mp["V"], mp["V_from_rotary"]),
+            ("acceleration [mm/s$^2$]", mp["A"], mp["A_from_rotary"])]
     for ax, (label, lin, rot) in zip(axs[0], rows):
         ax.plot(t, mm * lin[:, 0], label="x")
         ax.plot(t, mm * lin[:, 1], label="y")
         if rot is not None:
             ax.plot(t, mm * rot[:, 0], "k--", lw=0.8, label="x, from rotary inputs (eq. 15-18)")
             ax.plot(t, mm * rot[:, 1], "k:", lw=0.8, label="y, from rotary inputs")
-        ax.set_xlabel("t (s)")
+        ax.set_xlabel("t [s]")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axs[0, 0].legend(fontsize=8)
-    axs[0, 1].legend(fontsize=7)
+    # room above the curves for the four entries, which would otherwise cover them
+    axs[0, 1].margins(y=0.45)
+    axs[0, 1].legend(fontsize=7, loc="upper center", ncol=2)
     ax = axs[1, 0]
     ax.plot(t, mm * mp["m"][:, 0], label="m1")
     ax.plot(t, mm * mp["m"][:, 1], label="m2")
-    ax.set_ylabel("linear inputs (mm)")
+    ax.set_ylabel("linear inputs [mm]")
     ax.set_title("linear inputs (= platform x, y)", fontsize=9)
     ax = axs[1, 1]
     ax.plot(t, np.degrees(mp["theta"][:, 0]), label="theta2")
     ax.plot(t, np.degrees(mp["theta"][:, 1]), label="theta1")
-    ax.set_ylabel("rotary inputs (deg)")
+    ax.set_ylabel("rotary inputs [deg]")
     ax.set_title("rotary inputs for the same motion", fontsize=9)
     ax = axs[1, 2]
     ax.plot(t, np.degrees(mp["thetad"][:, 0]), label="theta2 rate")
     ax.plot(t, np.degrees(mp["thetad"][:, 1]), label="theta1 rate")
-    ax.set_ylabel("rotary input rates (deg/s)")
+    ax.set_ylabel("rotary input rates [deg/s]")
     for ax in axs[1]:
-        ax.set_xlabel("t (s)")
+        ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     mech = CPR_RRR(**design)
     fig.suptitle("2-CPR/RRR motion example (paper section 5, fig. 4): X = 10 sin(pi t/10 + pi/2), "
                  f"Y = 7.5 sin(pi t/7.5) mm; n = {1e3 * float(mech.n):g} mm, "
                  f"f = {1e3 * float(mech.f):g} mm, w = {1e3 * float(mech.w):g} mm", fontsize=10)
-    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return mp
