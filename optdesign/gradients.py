@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .evaluate import _COND, Evaluator, _evaluate
-from .indices import local_index
 from .mechanisms import symbolic_model
 
 __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available"]
@@ -45,24 +44,30 @@ FD_STEP = 2e-6
 
 @dataclass
 class Derivatives:
-    """Values and derivatives at D designs (n free variables, N workspace points).
+    """Values and derivatives at D designs (n free variables).
 
-    ``values[name]`` (D,) global index means, ``grads[name]`` (D, n);
-    ``local[name]`` (D, N) local values and ``local_grads[name]`` (D, N, n)
-    for the requests the constraints read (the conditioning of the
-    ``singularity`` constraint under ``cond``); ``strokes`` (D, N, n_act) and
-    ``stroke_grads`` (D, N, n_act, n) when the evaluator has stroke limits;
-    ``reachable`` (D, N).  ``route``: ``ad`` or ``fd``; ``fd_error[name]``
-    (D, n): |g(h) - g(2h)| / 3 for the fd route."""
+    ``values[name]`` (D,) global index means and extra objectives,
+    ``grads[name]`` (D, n); ``constraints[name]`` (D, m) the smooth
+    constraints (``<= 0`` feasible) and ``constraint_grads[name]`` (D, m, n);
+    ``reach`` (D,) the reachable fraction of W (a hard check, not
+    differentiated).  ``route``: ``ad`` or ``fd`` (``reason``: why not AD);
+    ``fd_error[name]`` (D, n): |g(h) - g(2h)| / 3 on the fd route.
+
+    The smooth constraints: on the AD route ``singularity`` is
+    ``log(cond(x_j) / threshold)`` at every workspace point j (the same
+    feasible set as the Evaluator's ``max_W cond / threshold - 1``, without
+    the kink of the maximum, and no steeper than cond itself where it grows
+    without bound near a singularity) and ``stroke_low`` / ``stroke_high`` are
+    ``(lo - q) / (hi - lo)`` and ``(q - hi) / (hi - lo)`` at every point and
+    actuator; an unreachable point counts as violated by 1.  On the fd route
+    they are the Evaluator's own (one value each, the maximum over W)."""
 
     route: str
     values: dict
     grads: dict
-    local: dict
-    local_grads: dict
-    reachable: np.ndarray
-    strokes: np.ndarray | None = None
-    stroke_grads: np.ndarray | None = None
+    constraints: dict
+    constraint_grads: dict
+    reach: np.ndarray
     fd_error: dict = field(default_factory=dict)
     reason: str = ""
 
@@ -203,8 +208,11 @@ def ad_available(evaluator: Evaluator) -> bool:
     return builder is not None and _ad_function(evaluator.mechanism.name, builder, tuple(evaluator.free)) is not None
 
 
-def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray):
-    """(J, dJ, M, dM, Q, dQ) on the AD route, each (D, N, ...), or a reason string."""
+def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, values_only: bool = False):
+    """(J, dJ, M, dM, Q, dQ) on the AD route, each (D, N, ...), or a reason
+    string; ``values_only``: the mechanism's matrices and derivatives with no
+    component (the route is not checked: a caller asks for values only at
+    designs of a route it has checked)."""
     cls = evaluator.mechanism
     builder = symbolic_model(cls.name)
     if builder is None:
@@ -222,6 +230,11 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray):
         Jm = np.broadcast_to(mech.jacobian(X), (D, N, model.n_act, model.dof))
     if not set(model.param_names) <= set(mech.params):
         return "the CasADi model reads parameters the mechanism does not have"
+    if values_only:
+        with np.errstate(all="ignore"):
+            M = np.broadcast_to(mech.mass_matrix(X), Jm.shape) if needs_M else None
+        none = np.zeros(Jm.shape + (0,))
+        return Jm, none, M, None if M is None else none, Q, np.zeros(Q.shape + (0,))
     pv = np.stack([np.broadcast_to(np.asarray(mech.params[k], dtype=float).reshape(-1, 1), (D, N)).ravel()
                    for k in model.param_names])
     n = D * N
@@ -273,14 +286,28 @@ def _mean(local, grad, reach, weights):
     return np.where(tot > 0, v, np.nan), np.where(tot[:, None] > 0, g, np.nan)
 
 
-def _cond_name(evaluator: Evaluator) -> str:
-    return evaluator._cond if evaluator._cond is not None else _COND
+def _extra(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
+    """Extra objectives (closed-form functions of the design) and their central differences."""
+    if not evaluator.extra:
+        return {}, {}
+    D, n = X.shape
+    if values_only:
+        vals = evaluator.extra_values(evaluator.designs(X))
+        return vals, {k: np.zeros((D, 0)) for k in vals}
+    h = 1e-7 * (evaluator.xu - evaluator.xl)
+    offs = np.concatenate([np.zeros((1, n)), np.diag(h), -np.diag(h)])
+    vals = evaluator.extra_values(evaluator.designs((X[:, None, :] + offs[None]).reshape(-1, n)))
+    out, grads = {}, {}
+    for k, v in vals.items():
+        v = v.reshape(D, 2 * n + 1)
+        out[k], grads[k] = v[:, 0], (v[:, 1:n + 1] - v[:, n + 1:]) / (2 * h)
+    return out, grads
 
 
-def _ad(evaluator: Evaluator, X: np.ndarray):
+def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     designs = evaluator.designs(X)
     mech = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in designs.items()}})
-    got = _ad_matrices(evaluator, mech, designs, evaluator.workspace.X)
+    got = _ad_matrices(evaluator, mech, designs, evaluator.workspace.X, values_only)
     if isinstance(got, str):
         return got
     J, dJ, M, dM, Q, dQ = got
@@ -294,56 +321,75 @@ def _ad(evaluator: Evaluator, X: np.ndarray):
     with np.errstate(all="ignore"):
         for r in evaluator.requests_all:
             v, g = local_derivative(r.kind, r.convention, r.option_dict(), Js, dJs, Ms, dMs)
-            v, g = np.where(reach, v, np.nan), np.where(reach[..., None], g, np.nan)
             local[r.name], local_grads[r.name] = v, g
-            values[r.name], grads[r.name] = _mean(v, g, reach, weights)
-    return Derivatives("ad", values, grads, local, local_grads, reach, Q, dQ)
+            if r.name in evaluator.index_names:
+                values[r.name], grads[r.name] = _mean(v, g, reach, weights)
+    name = evaluator._cond if evaluator._cond is not None else _COND
+    ok = reach & np.isfinite(local[name])
+    with np.errstate(all="ignore"):
+        cons = {"singularity": np.where(ok, np.log(local[name] / evaluator.threshold), 1.0)}
+        cgrads = {"singularity": np.where(ok[..., None], local_grads[name] / local[name][..., None], 0.0)}
+    if evaluator.stroke_limits is not None:
+        lo, hi = evaluator.stroke_limits
+        D, N, a = Q.shape
+        okq = np.broadcast_to(reach[..., None], Q.shape)
+        span = hi - lo
+        cons["stroke_low"] = np.where(okq, (lo - Q) / span, 1.0).reshape(D, N * a)
+        cons["stroke_high"] = np.where(okq, (Q - hi) / span, 1.0).reshape(D, N * a)
+        dq = np.where(okq[..., None], dQ, 0.0)
+        cgrads["stroke_low"] = (-dq / span).reshape(D, N * a, -1)
+        cgrads["stroke_high"] = (dq / span).reshape(D, N * a, -1)
+    ev, eg = _extra(evaluator, X, values_only)
+    values.update(ev)
+    grads.update(eg)
+    return Derivatives("ad", values, grads, cons, cgrads, reach.mean(axis=-1))
 
 
-def _fd(evaluator: Evaluator, X: np.ndarray, reason: str = ""):
-    """Central differences with steps h and 2h in one vectorized evaluation."""
+def _fd(evaluator: Evaluator, X: np.ndarray, reason: str = "", values_only: bool = False):
+    """Central differences with steps h and 2h in one call of the Evaluator
+    (its compiled path where the mechanism has one)."""
     D, n = X.shape
+    if values_only:
+        res = evaluator(X)
+        cons = {k: np.asarray(res["constraints"][k], dtype=float)[:, None]
+                for k in ("singularity", "stroke_low", "stroke_high") if k in res["constraints"]}
+        return Derivatives("fd", dict(res["values"]), {k: np.zeros((D, 0)) for k in res["values"]}, cons,
+                           {k: np.zeros((D, 1, 0)) for k in cons}, np.asarray(res["reachable_fraction"]), {}, reason)
     h = FD_STEP * (evaluator.xu - evaluator.xl)
-    E = np.eye(n) * h
+    E = np.diag(h)
     offs = np.concatenate([np.zeros((1, n)), E, -E, 2 * E, -2 * E])          # (4n + 1, n)
-    Xs = (X[:, None, :] + offs[None]).reshape(-1, n)
-    designs = evaluator.designs(Xs)
-    mech, summary, reach, local = _evaluate(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace,
-                                            evaluator.requests_all, keep_local=True)
-    m = 4 * n + 1
-    split = lambda a: a.reshape((D, m) + a.shape[1:])  # noqa: E731
+    res = evaluator((X[:, None, :] + offs[None]).reshape(-1, n))
 
     def diff(a):
-        """(value at X, Richardson derivative, error estimate) of an array (D * m, ...)."""
-        a = split(a)
-        g1 = (a[:, 1:n + 1] - a[:, n + 1:2 * n + 1]) / (2 * h.reshape((1, n) + (1,) * (a.ndim - 2)))
-        g2 = (a[:, 2 * n + 1:3 * n + 1] - a[:, 3 * n + 1:]) / (4 * h.reshape((1, n) + (1,) * (a.ndim - 2)))
-        g = (4 * g1 - g2) / 3
-        return a[:, 0], np.moveaxis(g, 1, -1), np.moveaxis(np.abs(g1 - g2) / 3, 1, -1)
+        """(value at X, derivative (h and 2h combined, Richardson), error estimate |g_h - g_2h| / 3)."""
+        a = np.asarray(a, dtype=float).reshape(D, 4 * n + 1)
+        g1 = (a[:, 1:n + 1] - a[:, n + 1:2 * n + 1]) / (2 * h)
+        g2 = (a[:, 2 * n + 1:3 * n + 1] - a[:, 3 * n + 1:]) / (4 * h)
+        return a[:, 0], (4 * g1 - g2) / 3, np.abs(g1 - g2) / 3
 
-    values, grads, loc, loc_g, err = {}, {}, {}, {}, {}
-    for r in evaluator.requests_all:
-        values[r.name], grads[r.name], err[r.name] = diff(summary[r.name]["mean"])
-        loc[r.name], loc_g[r.name], _ = diff(local[r.name])
-    Q = dQ = None
-    if evaluator.stroke_limits is not None:
-        with np.errstate(all="ignore"):
-            Q, dQ, _ = diff(np.asarray(mech.inverse(evaluator.workspace.X), dtype=float))
-    reach0 = split(reach)[:, 0]
-    return Derivatives("fd", values, grads, loc, loc_g, reach0, Q, dQ, err, reason)
+    values, grads, err, cons, cgrads = {}, {}, {}, {}, {}
+    for k, v in res["values"].items():
+        values[k], grads[k], err[k] = diff(v)
+    for k in ("singularity", "stroke_low", "stroke_high"):
+        if k in res["constraints"]:
+            v, g, _ = diff(res["constraints"][k])
+            cons[k], cgrads[k] = v[:, None], g[:, None, :]
+    reach = np.asarray(res["reachable_fraction"]).reshape(D, 4 * n + 1)[:, 0]
+    return Derivatives("fd", values, grads, cons, cgrads, reach, err, reason)
 
 
-def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto") -> Derivatives:
-    """Global index values and derivatives (and the constraints' local
-    quantities) at designs X (D, n_free): the AD route where the mechanism has
-    one (``route="auto"`` or ``"ad"``), central differences otherwise or with
-    ``route="fd"``."""
+def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values_only: bool = False) -> Derivatives:
+    """Global index values and derivatives and the smooth constraints at
+    designs X (D, n_free): the AD route where the mechanism has one
+    (``route="auto"`` or ``"ad"``), central differences otherwise or with
+    ``route="fd"``.  ``values_only``: the same values without derivatives
+    (grads with no column), on the route named (``auto`` counts as ``ad``)."""
     X = np.atleast_2d(np.asarray(X, dtype=float))
     if route != "fd":
-        got = _ad(evaluator, X)
+        got = _ad(evaluator, X, values_only)
         if not isinstance(got, str):
             return got
         if route == "ad":
             raise ValueError(f"no AD route for {evaluator.mechanism.name}: {got}")
-        return _fd(evaluator, X, got)
-    return _fd(evaluator, X, "asked for")
+        return _fd(evaluator, X, got, values_only)
+    return _fd(evaluator, X, "asked for", values_only)

@@ -107,9 +107,12 @@ def test_nothing_imports_the_cli():
     ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # evaluate: the one place that builds mechanisms from a config
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
+    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
+                             "optdesign.indices")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
-    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
-                            "optdesign.report_html")),
+    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
+                            "optdesign.runs", "optdesign.report_html")),
     ("optdesign.runs", ()),
     ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices")),
 ])

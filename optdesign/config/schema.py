@@ -61,6 +61,8 @@ class OptimizerSpec:
     stroke_limits: tuple[float, float] | None = None
     min_transmission: float = 0.0
     checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
+    prescan: int = 2048            # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none
+    polish: int = 3                # starts of the gradient polish after each stage; 0 = no polish
 
 
 @dataclass
