@@ -43,18 +43,20 @@ def test_summary_statistics_match_the_rows(small_batches, tmp_path):
     rows = [row_from_folder(f) for f in collect_folders([out])]
     (g,) = group_stats(rows)
     assert g["runs"] == 3 and g["complete"] == 2 and g["seeds"] == [1, 2, 3]
-    for q in ("objective", "opt_r_a", "dynamic", "stiffness", "isotropy", "wall_time_s"):
+    for q in ("objective_pooled", "objective", "opt_r_a", "dynamic", "stiffness", "isotropy", "wall_time_s"):
         v = np.array([float(r[q]) for r in table[:2]])          # from the CSV, as a user would
         s = g["stats"][q]
-        assert s["mean"] == pytest.approx(v.mean(), rel=1e-12)
-        assert s["std"] == pytest.approx(v.std(ddof=1), rel=1e-12)
+        assert s["mean"] == pytest.approx(v.mean(), rel=1e-12, abs=1e-300)
+        assert s["std"] == pytest.approx(v.std(ddof=1), rel=1e-12, abs=1e-300)
         assert (s["min"], s["max"]) == (v.min(), v.max())
-        best = int(np.argmin([float(r["objective"]) for r in table[:2]]))
+        # the best run on the pooled scale (ties: the lower seed)
+        best = min(range(2), key=lambda i: (float(table[i]["objective_pooled"]), int(table[i]["seed"])))
         assert s["best"] == v[best]
     assert g["best_seed"] == int(table[best]["seed"])
     md = (out / "summary.md").read_text()
     mean, sd = g["stats"]["objective"]["mean"], g["stats"]["objective"]["std"]
     assert re.search(rf"\| objective +\| +{re.escape(f'{mean:.6g}')} \| +{re.escape(f'{sd:.6g}')} \|", md)
+    assert "pooled over the 2 complete runs" in md
     assert "Runs not complete" in md and "interrupted" in md
 
 

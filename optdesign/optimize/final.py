@@ -15,7 +15,7 @@ import numpy as np
 
 from .normalization import bounds_of, fold_extremes, normalization_record, terms_in_range
 from .polish import optimality, polish_designs
-from .problem import DesignProblem, weighted_sum, weighted_sum_term
+from .problem import DesignProblem, normalized_terms, weighted_sum_term
 from .refine import merge_observed, observed
 from .results import place_against_front
 
@@ -63,16 +63,21 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
         if got["best"] is not None and got["best"][1] < f0:
             opt_design = {k: float(v[0]) for k, v in evaluator.designs(got["best"][0][None, :]).items()}
         x = evaluator.vector(opt_design)
-        repolish = {"objective_before": f0, "objective": float(prob.objectives(evaluator(x[None, :])["values"])[0, 0]),
+        r = evaluator(x[None, :])
+        repolish = {"objective_before": f0, "objective": float(prob.objectives(r["values"])[0, 0]),
                     "optimality": optimality(prob, x, evaluator.free)}
+        # the polished optimum is a feasible design of the box too: the extremes include it
+        obs = observed(evaluator, x[None, :], {k: np.asarray(r["values"][k]) for k in evaluator.index_names}, "polish")
+        for k, b, old, new in merge_observed(ext, obs, "final"):
+            changes.append({"index": k, "bound": b, "from": old, "to": new, "stage": "final"})
+        lo, hi = bounds_of(ext, weighted)
     ev = evaluate(cfg, [opt_design] + [cfg.design(n) for n in names], ws)
 
     def summ(i):
         return {k: {s: float(ev.summary[k][s][i]) for s in ("mean", "min", "max", "std")} for k in cfg.indices}
 
     vals = {k: ev.summary[k]["mean"] for k in cfg.indices}
-    ours = weighted_sum(vals, weighted_sum_term(lo, hi, weights, senses))
-    literal = weighted_sum(vals, weighted_sum_term(lo, hi, weights, senses, literal=True))
+    ours, literal = _clipped_sum(vals, lo, hi, weights, senses), _clipped_sum(vals, lo, hi, weights, senses, True)
     designs = {}
     for j, n in enumerate(names):
         v = {k: float(vals[k][j + 1]) for k in weighted}
@@ -105,8 +110,8 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
     if "weighted_sum_literal" in stages and stages["weighted_sum_literal"]["feasible"]:
         s = stages["weighted_sum_literal"]
         lv = {k: np.array([s["indices"][k]]) for k in weighted}
-        results["paper_literal_optimum"] = {"design": s["design"], "global_indices": s["indices"], "objective": float(
-            weighted_sum(lv, weighted_sum_term(lo, hi, weights, senses, literal=True))[0])}
+        results["paper_literal_optimum"] = {"design": s["design"], "global_indices": s["indices"],
+                                            "objective": float(_clipped_sum(lv, lo, hi, weights, senses, True)[0])}
     candidates = {"weighted_sum_optimum": (results["global_indices"], results["optimum"])}
     for j, n in enumerate(names):
         candidates[n] = ({k: float(ev.summary[k]["mean"][j + 1]) for k in cfg.indices}, cfg.design(n))
@@ -116,6 +121,14 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
     if pareto:
         results["pareto"] = pareto
     return results
+
+
+def _clipped_sum(vals: dict, lo: dict, hi: dict, weights: dict, senses: dict, literal: bool = False) -> np.ndarray:
+    """The weighted sum with each normalized term clipped to [0, 1]: the
+    values are those of designs whose index values lie within the extremes
+    (checked, to 1e-12 relative), so the clip removes round-off only."""
+    f = normalized_terms(vals, lo, hi, senses, literal)
+    return sum(weights[k] * np.clip(f[k], 0.0, 1.0) for k in f)
 
 
 def _polish_summary(ws_res: dict, repolish: dict | None) -> dict:

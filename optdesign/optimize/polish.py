@@ -36,6 +36,7 @@ import warnings
 
 import numpy as np
 from scipy.optimize import minimize, nnls
+from threadpoolctl import threadpool_limits
 
 from ..gradients import derivatives
 from .problem import normalized_terms
@@ -113,11 +114,19 @@ def _finite(v) -> float:
     return v if np.isfinite(v) else 1e30
 
 
-def _slsqp(fun, jac, u0, cons, n_bounds, maxiter):
-    with np.errstate(all="ignore"), warnings.catch_warnings():
+def _minimize(*args, **kwargs):
+    """scipy.optimize.minimize with one BLAS thread: SLSQP's steps depend on
+    the BLAS thread count in their last bits (a worker of a process pool runs
+    with fewer threads than the main process), and the same seed must give
+    the same files whatever runs it."""
+    with np.errstate(all="ignore"), warnings.catch_warnings(), threadpool_limits(limits=1, user_api="blas"):
         warnings.simplefilter("ignore")
-        return minimize(fun, u0, jac=jac, method="SLSQP", bounds=[(0.0, 1.0)] * n_bounds,
-                        constraints=[cons], options={"maxiter": int(maxiter), "ftol": 1e-14})
+        return minimize(*args, **kwargs)
+
+
+def _slsqp(fun, jac, u0, cons, n_bounds, maxiter):
+    return _minimize(fun, u0, jac=jac, method="SLSQP", bounds=[(0.0, 1.0)] * n_bounds,
+                     constraints=[cons], options={"maxiter": int(maxiter), "ftol": 1e-14})
 
 
 def _check(problem, X):
@@ -216,11 +225,8 @@ def polish_front_point(problem, x0: np.ndarray, r: np.ndarray, maxiter: int = 10
         return np.vstack([top, np.hstack([J, np.zeros((len(J), 1))])])
 
     z0 = np.concatenate([(x0 - xl) / width, [0.0]])
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = minimize(fun, z0, jac=True, method="SLSQP", bounds=[(0.0, 1.0)] * n + [(None, None)],
-                       constraints=[{"type": "ineq", "fun": cf, "jac": cj}],
-                       options={"maxiter": int(maxiter), "ftol": 1e-14})
+    res = _minimize(fun, z0, jac=True, method="SLSQP", bounds=[(0.0, 1.0)] * n + [(None, None)],
+                    constraints=[{"type": "ineq", "fun": cf, "jac": cj}], options={"maxiter": int(maxiter), "ftol": 1e-14})
     x = xl + width * np.clip(res.x[:-1], 0, 1)
     F, ok, _ = _check_multi(problem, x)
     if ok and np.all(F <= a) and np.any(F < a):
@@ -260,7 +266,8 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
     cols += [np.eye(len(u))[i] for i in np.flatnonzero(low)] + [-np.eye(len(u))[i] for i in np.flatnonzero(high)]
     if cols:
         A = np.stack(cols, axis=1)
-        lam, res = nnls(A, g)
+        with threadpool_limits(limits=1, user_api="blas"):
+            lam, res = nnls(A, g)
     else:
         lam, res = np.zeros(0), float(np.linalg.norm(g))
     bounds = [f"{names[i]} at its lower bound" for i in np.flatnonzero(low)]

@@ -10,7 +10,7 @@ import numpy as np
 from ..config import Config
 from ..runs import RunFolder
 
-__all__ = ["write_report", "parameter_table", "index_table", "format_results"]
+__all__ = ["write_report", "parameter_table", "index_table", "format_results", "extremes_lines", "optimality_lines"]
 
 
 def _f(x, digits=4) -> str:
@@ -114,7 +114,11 @@ def format_results(cfg: Config, results: dict) -> str:
         lines.append(f"- Minimizing the literal eq. 38 instead gives {txt} (objective {_f(pl['objective'])}): "
                      "it rewards low stiffness, which is why we flip that term.")
     for n, dd in results["designs"].items():
+        if dd.get("objective") is None and dd.get("objective_note"):
+            lines.append(f"- The {n} design gets no normalized objective: {dd['objective_note']}.")
+            continue
         lines.append(f"- The {n} design scores {_f(dd['objective'])} on our objective ({_f(dd['objective_paper_literal'])} literal).")
+    lines += extremes_lines(cfg, results) + optimality_lines(cfg, results)
     if results.get("pareto"):
         lines.append("")
         lines.append("## Pareto fronts")
@@ -134,6 +138,65 @@ def format_results(cfg: Config, results: dict) -> str:
                      "design beats the point in every objective by at least that much.")
     lines.append("")
     return "\n".join(lines)
+
+
+def _design_text(cfg: Config, design: dict) -> str:
+    return ", ".join(f"{k} = {_f(dv.display(design[k]))}" for k, dv in cfg.design_variables.items()
+                     if dv.free and k in design)
+
+
+def extremes_lines(cfg: Config, results: dict) -> list[str]:
+    """Where each extreme of the normalization was found (design, stage, how),
+    and whether a later stage moved one (then every normalized objective of
+    the report is recomputed from the final extremes)."""
+    norm = results.get("normalization", {})
+    rows = []
+    for k, v in norm.items():
+        for b in ("min", "max"):
+            if f"{b}_found_by" in v:
+                rows.append([k, b, _f(v[b]), v[f"{b}_found_by"], v.get(f"{b}_stage", ""), _design_text(cfg, v[f"{b}_design"])])
+    if not rows:
+        return []
+    out = ["", "### Where the extremes were found", "",
+           _md(["index", "extreme", "value", "found by", "stage", "design"], rows), ""]
+    ups = results.get("normalization_updates")
+    if ups:
+        moved = "; ".join(f"{u['index']} {u['bound']} {_f(u['from'])} -> {_f(u['to'])} ({u['stage']})" for u in ups)
+        out.append(f"- Later stages went beyond the extremes the weighted sums were run with ({moved}); the extremes "
+                   "were updated and every normalized objective in this report is recomputed from the final extremes"
+                   + (" (the optimum was polished again with them)." if "with_final_extremes" in results.get("polish", {})
+                      else "."))
+    else:
+        out.append("- No later stage went beyond the extremes of the pre-scan and the single-objective stages.")
+    out.append("- Every normalized term of a feasible design of the box lies in [0, 1] on these extremes, so the "
+               f"weighted sum lies in [0, {_f(sum(v['weight'] for v in norm.values()), 2)}] (the sum of the weights).")
+    return out
+
+
+def optimality_lines(cfg: Config, results: dict) -> list[str]:
+    """The polish of the weighted-sum optimum: the improvement over the GA and
+    the first-order optimality measure with the active bounds and constraints."""
+    p = results.get("polish")
+    if not p or "optimality" not in p:
+        return []
+    o = p["optimality"]
+    act = ", ".join(o["active_bounds"]) or "none"
+    cons = ", ".join(f"{k} at {n} workspace point(s)" for k, n in o["active_constraints"].items()) or "none"
+    ok = "below" if o["kkt_residual"] <= o["tolerance"] else "ABOVE"
+    out = ["", "### The optimum's polish", "",
+           f"- Weighted sum found by the search: {_f(p.get('ga_objective'))}; after the gradient polish "
+           f"({p.get('starts', '?')} starts, derivatives by {'automatic differentiation' if o['route'] == 'ad' else 'central differences'}): "
+           f"{_f(p.get('objective'))} (improvement {_f(p.get('improvement'))}).",
+           f"- First-order optimality at the optimum (objective scaled by {_f(o['objective_scale'])}, design "
+           f"variables scaled to the unit box): KKT residual {_f(o['kkt_residual'])} ({ok} the tolerance "
+           f"{_f(o['tolerance'])}), projected gradient norm {_f(o['projected_gradient_norm'])} (active bounds "
+           f"only), gradient norm {_f(o['gradient_norm'])}.",
+           f"- Active bounds: {act}. Active constraints: {cons}."]
+    fin = p.get("with_final_extremes")
+    if fin:
+        out.insert(4, f"- With the final extremes the weighted sum at the search's optimum was {_f(fin['objective_before'])}; "
+                      f"polished again with them: {_f(fin['objective'])} (the measure below is at this design).")
+    return out
 
 
 def write_report(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
