@@ -21,7 +21,7 @@ from pymoo.algorithms.soo.nonconvex.ga import GA
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import Evaluator, workspace_of
 from optdesign.optimize.algorithms import reference_directions
-from optdesign.optimize.pipeline import stage_plan, stage_problem, stage_seed
+from optdesign.optimize.pipeline import prescan_size, stage_plan, stage_problem, stage_seed
 
 ALG = {"paper_ga": GA, "pymoo_ga": GA, "de": DE}
 OPTIMIZATION_CONFIGS = sorted(p for p in CONFIGS.glob("*.yaml")
@@ -42,7 +42,7 @@ def test_plan_follows_the_config(path):
     opt = cfg.optimizer
     plan = stage_plan(cfg)
     weighted = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
-    assert [s.name for s in plan if s.kind == "prescan"] == (["prescan"] if opt.prescan > 0 else [])
+    assert [s.name for s in plan if s.kind == "prescan"] == (["prescan"] if prescan_size(opt) > 0 else [])
     singles = [s for s in plan if s.kind == "single"]
     assert [(s.index, s.sense) for s in singles] == [(k, m) for k in weighted for m in ("min", "max")]
     assert [s.name for s in plan if s.kind == "weighted"] == (

@@ -44,7 +44,7 @@ from .results import finished_stage, rows_csv, stage_summary
 from .stage import run_stage
 from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
 
-__all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "build_algorithm",
+__all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "prescan_size", "build_algorithm",
            "default_jobs", "PipelineResult"]
 
 
@@ -61,7 +61,7 @@ class Stage:
 def stage_plan(cfg: Config) -> list[Stage]:
     opt = cfg.optimizer
     names = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
-    plan = [Stage("prescan", "prescan")] if opt.prescan > 0 else []
+    plan = [Stage("prescan", "prescan")] if prescan_size(opt) > 0 else []
     for k in names:
         plan += [Stage(f"single_{k}_min", "single", k, "min"), Stage(f"single_{k}_max", "single", k, "max")]
     plan.append(Stage("weighted_sum", "weighted"))
@@ -70,6 +70,12 @@ def stage_plan(cfg: Config) -> list[Stage]:
     if len(cfg.indices) + len(opt.extra_objectives) >= 2:
         plan += [Stage(f"pareto_{a}", "pareto", algorithm=a) for a in opt.pareto_algorithms]
     return plan
+
+
+def prescan_size(opt) -> int:
+    """Designs of the pre-scan: ``optimizer.prescan``, by default the smaller of
+    2048 and one single-objective stage's budget (population x generations)."""
+    return int(opt.prescan) if opt.prescan is not None else min(2048, opt.population * opt.generations)
 
 
 def stage_seed(seed: int, i: int) -> int:
@@ -107,7 +113,7 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
     """Run (or resume) stage ``i`` of the plan and write its files."""
     evaluator = evaluator or Evaluator.from_config(cfg, ws)
     if st.kind == "prescan":
-        res, rows = run_prescan(evaluator, cfg.optimizer.prescan, stage_seed(seed, i))
+        res, rows = run_prescan(evaluator, prescan_size(cfg.optimizer), stage_seed(seed, i))
         folder.stage_dir(st.name)
         folder.write_text(f"stages/{st.name}/population.csv", rows_csv(rows))
         folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
