@@ -43,7 +43,8 @@ from .problem import normalized_terms
 
 __all__ = ["term_value", "distinct_best", "polish_designs", "polish_front_point", "optimality", "TOLERANCE", "ACTIVE"]
 
-#: the stated tolerance of the optimality measure (KKT residual of the scaled objective)
+#: the stated tolerance of the optimality measure (KKT residual of the scaled
+#: objective over max(1, its gradient norm), see :func:`optimality`)
 TOLERANCE = 1e-6
 #: a bound or constraint within this (unit box, constraint units) is active
 ACTIVE = 1e-6
@@ -54,6 +55,8 @@ MARGIN = 1e-9
 #: differences cost 4 n + 1 evaluations a derivative and are good to about
 #: 1e-8, so that route stops earlier.
 SETTINGS = {"ad": (None, 1e-14), "fd": (15, 1e-10)}
+#: restarts of a start whose SLSQP run ends without converging but with progress
+RESTARTS = 3
 
 
 def term_value(term, values: dict, grads: dict | None = None):
@@ -147,6 +150,32 @@ def _check(problem, X):
     return out["F"][:, 0], np.all(out["G"] <= 0, axis=1), out
 
 
+def _objective(term, pt, f0: float, width):
+    """(fun, jac) SLSQP minimizes for a term, in unit-box coordinates: an index
+    or extra objective of one sign as log(sign * value) when that is positive at
+    the start (the same optimum; near a singularity, where an index grows like
+    1 / distance, its logarithm is much better conditioned), otherwise the
+    value scaled by 1 / max(|f0|, 0.01)."""
+    sign = getattr(term, "sign", 1.0)      # the term's value is sign * sigma
+    log = term.kind in ("index", "extra") and sign * f0 > 0
+
+    def value(v):
+        if log:   # sign * log(sigma): log sigma minimized, or -log sigma for a maximized index
+            return sign * np.log(sign * v) if sign * v > 0 else np.inf
+        return v / max(abs(f0), 1e-2)
+
+    def fun(u):
+        return _finite(value(float(term_value(term, pt.at(u, False).values)[0])))
+
+    def jac(u):
+        d = pt.at(u)
+        v, g = term_value(term, d.values, d.grads)
+        g = g[0] * width * (sign / v[0] if log else 1.0 / max(abs(f0), 1e-2))
+        return np.where(np.isfinite(g), g, 0.0)
+
+    return fun, jac
+
+
 def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str = "auto") -> dict:
     """Polish each start (feasible designs (k, n)) for the single objective of
     ``problem`` (a DesignProblem with one term).  Returns ``best`` (x, value,
@@ -161,26 +190,28 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
     for x0, f0, ok in zip(starts, F0, ok0):
         if not ok:
             continue
-        scale = 1.0 / max(abs(float(f0)), 1e-2)
-
-        def fun(u):
-            return _finite(scale * term_value(term, pt.at(u, False).values)[0])
-
-        def jac(u):
-            d = pt.at(u)
-            g = scale * term_value(term, d.values, d.grads)[1][0] * width
-            return np.where(np.isfinite(g), g, 0.0)
+        fun, jac = _objective(term, pt, float(f0), width)
 
         calls = pt.calls
         cons = {"type": "ineq", "fun": lambda u: pt.constraints(u, False), "jac": lambda u: pt.constraints(u)[1]}
-        u0 = (x0 - xl) / width
-        res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter))
-        x = _feasible_end(problem, x0, xl + width * np.clip(res.x, 0, 1))
-        f, _, _ = _check(problem, x)
-        runs.append({"start": x0.tolist(), "start_value": float(f0), "end_value": float(f[0]),
-                     "iterations": int(res.nit), "evaluations": pt.calls - calls, "message": str(res.message)})
-        if f[0] <= f0 and (best is None or f[0] < best[1]):
-            best = (x, float(f[0]))
+        x, f, nit = x0, float(f0), 0
+        for _ in range(1 + RESTARTS):
+            # a line search that fails (SLSQP's quasi-Newton model gone stale next to the
+            # singularity constraint) is restarted from where it stopped, while that helps
+            u0 = (x - xl) / width
+            res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter))
+            nit += int(res.nit)
+            x1 = _feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
+            f1 = float(_check(problem, x1)[0][0])
+            better = f1 < f - 1e-15 * max(abs(f), 1e-300)
+            if better:
+                x, f = x1, f1
+            if res.success or not better:
+                break
+        runs.append({"start": x0.tolist(), "start_value": float(f0), "end_value": f, "iterations": nit,
+                     "evaluations": pt.calls - calls, "message": str(res.message)})
+        if f <= f0 and (best is None or f < best[1]):
+            best = (x, f)
     return {"best": best, "runs": runs, "evaluations": pt.calls, "route": pt.d.route if pt.d is not None else None,
             "route_reason": pt.d.reason if pt.d is not None else ""}
 
@@ -257,7 +288,10 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
     gradient of the objective scaled as the polish scales it (by
     1 / max(|f|, 0.01)) in unit-box coordinates, its norm, the projected
     gradient norm (active bounds only), the KKT residual over the active
-    bounds and constraints, and which are active."""
+    bounds and constraints, and which are active.  The measure compared with
+    :data:`TOLERANCE` is ``kkt_relative``: the KKT residual over
+    max(1, gradient norm), so that a gradient held by active bounds (the
+    common case here) is measured against its own size."""
     ev = problem.evaluate_designs
     pt = _Point(ev, route)
     width = ev.xu - ev.xl
@@ -284,8 +318,10 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
         lam, res = np.zeros(0), float(np.linalg.norm(g))
     bounds = [f"{names[i]} at its lower bound" for i in np.flatnonzero(low)]
     bounds += [f"{names[i]} at its upper bound" for i in np.flatnonzero(high)]
-    return {"gradient_norm": float(np.linalg.norm(g)), "projected_gradient_norm": float(np.linalg.norm(proj)),
-            "kkt_residual": float(res), "tolerance": TOLERANCE, "active_bounds": bounds,
+    gn = float(np.linalg.norm(g))
+    return {"gradient_norm": gn, "projected_gradient_norm": float(np.linalg.norm(proj)),
+            "kkt_residual": float(res), "kkt_relative": float(res) / max(1.0, gn), "tolerance": TOLERANCE,
+            "converged": float(res) / max(1.0, gn) <= TOLERANCE, "active_bounds": bounds,
             "active_constraints": active, "route": d.route, "objective_scale": scale}
 
 

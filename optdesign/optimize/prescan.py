@@ -75,7 +75,7 @@ def best_designs(prescan: dict | None, term, k: int, min_distance: float = 0.05,
     ``term``, each at least ``min_distance`` (in the unit box) from the ones
     taken before it; (0, n) without a scan."""
     if not prescan or not prescan.get("designs") or k <= 0:
-        return np.zeros((0, len(prescan.get("variables", [])) if prescan else 0))
+        return np.zeros((0, len(xl) if xl is not None else len((prescan or {}).get("variables", []))))
     X = np.asarray(prescan["designs"], dtype=float)
     vals = {name: np.asarray(v, dtype=float) for name, v in prescan["values"].items()}
     with np.errstate(all="ignore"):

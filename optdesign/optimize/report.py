@@ -182,15 +182,17 @@ def optimality_lines(cfg: Config, results: dict) -> list[str]:
     o = p["optimality"]
     act = ", ".join(o["active_bounds"]) or "none"
     cons = ", ".join(f"{k} at {n} workspace point(s)" for k, n in o["active_constraints"].items()) or "none"
-    ok = "below" if o["kkt_residual"] <= o["tolerance"] else "ABOVE"
+    rel = o.get("kkt_relative", o["kkt_residual"])
+    ok = "below" if rel <= o["tolerance"] else "ABOVE"
     out = ["", "### The optimum's polish", "",
            f"- Weighted sum found by the search: {_f(p.get('ga_objective'))}; after the gradient polish "
            f"({p.get('starts', '?')} starts, derivatives by {'automatic differentiation' if o['route'] == 'ad' else 'central differences'}): "
            f"{_f(p.get('objective'))} (improvement {_f(p.get('improvement'))}).",
            f"- First-order optimality at the optimum (objective scaled by {_f(o['objective_scale'])}, design "
-           f"variables scaled to the unit box): KKT residual {_f(o['kkt_residual'])} ({ok} the tolerance "
-           f"{_f(o['tolerance'])}), projected gradient norm {_f(o['projected_gradient_norm'])} (active bounds "
-           f"only), gradient norm {_f(o['gradient_norm'])}.",
+           f"variables scaled to the unit box): KKT residual {_f(o['kkt_residual'])}, "
+           f"{_f(rel)} relative to max(1, gradient norm) ({ok} the tolerance {_f(o['tolerance'])}); projected "
+           f"gradient norm {_f(o['projected_gradient_norm'])} (active bounds only), gradient norm "
+           f"{_f(o['gradient_norm'])}.",
            f"- Active bounds: {act}. Active constraints: {cons}."]
     fin = p.get("with_final_extremes")
     if fin:
