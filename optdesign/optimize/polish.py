@@ -57,6 +57,9 @@ MARGIN = 1e-9
 SETTINGS = {"ad": (None, 1e-14), "fd": (15, 1e-10)}
 #: restarts of a start whose SLSQP run ends without converging but with progress
 RESTARTS = 3
+#: a start whose iterate comes this close (unit box, max norm) to where an
+#: earlier start ended is stopped: it is converging to the same design
+JOIN = 1e-3
 
 
 def term_value(term, values: dict, grads: dict | None = None):
@@ -138,9 +141,9 @@ def _options(pt, u0, maxiter: int) -> dict:
     return {"maxiter": int(maxiter if cap is None else min(maxiter, cap)), "ftol": ftol}
 
 
-def _slsqp(fun, jac, u0, cons, n_bounds, options):
+def _slsqp(fun, jac, u0, cons, n_bounds, options, callback=None):
     return _minimize(fun, u0, jac=jac, method="SLSQP", bounds=[(0.0, 1.0)] * n_bounds,
-                     constraints=[cons], options=options)
+                     constraints=[cons], options=options, callback=callback)
 
 
 def _check(problem, X):
@@ -194,22 +197,33 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
 
         calls = pt.calls
         cons = {"type": "ineq", "fun": lambda u: pt.constraints(u, False), "jac": lambda u: pt.constraints(u)[1]}
+        ends = [(np.asarray(r["end"]) - xl) / width for r in runs]
+        joined = []
+
+        def meet(u):
+            """Stop a start that has come within JOIN of where an earlier one ended."""
+            for j, e in enumerate(ends):
+                if np.max(np.abs(np.asarray(u) - e)) < JOIN:
+                    joined.append(j)
+                    raise StopIteration
+
         x, f, nit = x0, float(f0), 0
         for _ in range(1 + RESTARTS):
             # a line search that fails (SLSQP's quasi-Newton model gone stale next to the
             # singularity constraint) is restarted from where it stopped, while that helps
             u0 = (x - xl) / width
-            res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter))
+            res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter), meet if ends else None)
             nit += int(res.nit)
             x1 = _feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
             f1 = float(_check(problem, x1)[0][0])
             better = f1 < f - 1e-15 * max(abs(f), 1e-300)
             if better:
                 x, f = x1, f1
-            if res.success or not better:
+            if res.success or not better or joined:
                 break
-        runs.append({"start": x0.tolist(), "start_value": float(f0), "end_value": f, "iterations": nit,
-                     "evaluations": pt.calls - calls, "message": str(res.message)})
+        runs.append({"start": x0.tolist(), "start_value": float(f0), "end": x.tolist(), "end_value": f,
+                     "iterations": nit, "evaluations": pt.calls - calls,
+                     "message": f"joined start {joined[0] + 1}" if joined else str(res.message)})
         if f <= f0 and (best is None or f < best[1]):
             best = (x, f)
     return {"best": best, "runs": runs, "evaluations": pt.calls, "route": pt.d.route if pt.d is not None else None,
