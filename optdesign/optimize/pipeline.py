@@ -151,7 +151,7 @@ def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evalua
     if st.kind == "weighted":
         done = [evaluator.vector(r["design"]) for r in stages.values() if r.get("kind") == "single"]
         X = np.concatenate([np.array(done).reshape(-1, len(evaluator.free)), X])
-    return X.tolist()
+    return np.clip(X, evaluator.xl, evaluator.xu).tolist()
 
 
 @dataclass

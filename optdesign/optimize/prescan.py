@@ -77,6 +77,8 @@ def best_designs(prescan: dict | None, term, k: int, min_distance: float = 0.05,
     if not prescan or not prescan.get("designs") or k <= 0:
         return np.zeros((0, len(xl) if xl is not None else len((prescan or {}).get("variables", []))))
     X = np.asarray(prescan["designs"], dtype=float)
+    if xl is not None and X.shape[1] != len(xl):
+        raise ValueError(f"the pre-scan has {X.shape[1]} design variables, the problem {len(xl)}")
     vals = {name: np.asarray(v, dtype=float) for name, v in prescan["values"].items()}
     with np.errstate(all="ignore"):
         f = np.asarray(term_value(term, vals), dtype=float)

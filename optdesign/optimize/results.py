@@ -143,7 +143,8 @@ def check_stage_result(res: dict, stage, path) -> dict:
     if ok and stage.kind == "prescan":
         X, vals, names = res.get("designs"), res.get("values"), res.get("variables")
         ok = (isinstance(X, list) and isinstance(vals, dict) and isinstance(names, list)
-              and all(isinstance(x, list) and len(x) == len(names) and all(_num(v) for v in x) for x in X)
+              and all(isinstance(x, list) and len(x) == len(names) and all(_num(v) and math.isfinite(v) for v in x)
+                      for x in X)
               and all(isinstance(v, list) and len(v) == len(X) and all(_num(a) for a in v) for v in vals.values()))
     elif ok and stage.kind in ("single", "weighted"):
         d = res.get("design")
