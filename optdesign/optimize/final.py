@@ -28,6 +28,9 @@ def _named_observed(evaluator, cfg, names, ev) -> dict:
         return {}
     X = np.array([evaluator.vector(cfg.design(n)) for n in names])
     inside = np.all((X >= evaluator.xl) & (X <= evaluator.xu), axis=1)
+    # a named design that changes a fixed parameter is not a design of this box
+    inside &= np.array([all(cfg.design(n).get(k, v) == v for k, v in evaluator.defaults.items()
+                            if k not in evaluator.free) for n in names])
     if not inside.any():
         return {}
     r = evaluator(X)
