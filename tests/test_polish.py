@@ -141,3 +141,25 @@ def test_no_normalized_objective_leaves_zero_one_over_seeds_1_to_5(path, tmp_pat
         for p in r.get("pareto", {}).values():
             Fn = np.array(p["placement"]["weighted_sum_optimum"]["normalized_objectives"])
             assert np.all((Fn >= -1e-12) & (Fn <= 1 + 1e-12)), seed
+
+
+@pytest.mark.parametrize("key, value", [("prescan", -1), ("prescan", 1.5), ("polish", -2), ("polish", "yes"),
+                                        ("algorithm", "cmaes")])
+def test_the_new_optimizer_keys_are_validated(key, value):
+    from optdesign.config import ConfigError
+
+    text = edited_text(PAPER.read_text(), {"  seed: 1\n": f"  seed: 1\n  {key}: {value}\n"})
+    with pytest.raises(ConfigError) as exc:
+        parse_config(text, source="p.yaml")
+    assert f"optimizer.{key}" in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_the_pre_scan_follows_the_budget_unless_the_config_says():
+    from optdesign.optimize.pipeline import prescan_size, stage_plan
+
+    cfg = load_config(PAPER)
+    assert prescan_size(cfg.optimizer) == 2048                       # 50 x 100 > 2048
+    small = parse_config(edited_text(PAPER.read_text(), {"generations: 100 ": "generations: 3 "}), source="s.yaml")
+    assert prescan_size(small.optimizer) == 150
+    none = parse_config(edited_text(PAPER.read_text(), {"  seed: 1\n": "  seed: 1\n  prescan: 0\n"}), source="n.yaml")
+    assert prescan_size(none.optimizer) == 0 and stage_plan(none)[0].kind == "single"
