@@ -163,3 +163,27 @@ def test_the_pre_scan_follows_the_budget_unless_the_config_says():
     assert prescan_size(small.optimizer) == 150
     none = parse_config(edited_text(PAPER.read_text(), {"  seed: 1\n": "  seed: 1\n  prescan: 0\n"}), source="n.yaml")
     assert prescan_size(none.optimizer) == 0 and stage_plan(none)[0].kind == "single"
+
+
+def test_the_optimality_measure_says_where_the_objective_has_a_kink():
+    """2-CPR/RRR: the two singular values of J cross at points of W, so the
+    stiffness index (the smallest one, summed over a grid) has kinks: at
+    f = w its one-sided slopes differ and the measure says it is no
+    certificate.  The 3-P(4S)'s indices, whose double singular value at the
+    centre of W persists for every design, are smooth at the corner and
+    inside the box."""
+    from optdesign.optimize.polish import optimality
+    from optdesign.optimize.problem import DesignProblem, index_term
+
+    ev = Evaluator.from_config(load_config(CONFIGS / "cpr_rrr_opt.yaml"))
+    x = ev.vector({"n": 0.06, "f": 0.1, "w": 0.1})
+    o = optimality(DesignProblem(ev, [index_term("stiffness", "max")]), x, ev.free)
+    assert not o["differentiable"] and o["one_sided_jump"] > 0.1
+    ev = Evaluator.from_config(load_config(PAPER))
+    corner = ev.vector({"r_a": 0.21, "r_b": 0.71, "phi": np.radians(35)})
+    o = optimality(DesignProblem(ev, [index_term("stiffness", "max")]), corner, ev.free)
+    assert o["differentiable"] and o["kkt_relative"] <= TOLERANCE
+    inside = ev.vector({"r_a": 0.25, "r_b": 0.67, "phi": np.radians(30)})
+    for k in ("dynamic", "stiffness", "isotropy"):
+        o = optimality(DesignProblem(ev, [index_term(k, "min")]), inside, ev.free)
+        assert o["differentiable"] and o["one_sided_jump"] < 1e-4, k

@@ -194,6 +194,11 @@ def optimality_lines(cfg: Config, results: dict) -> list[str]:
            f"gradient norm {_f(o['projected_gradient_norm'])} (active bounds only), gradient norm "
            f"{_f(o['gradient_norm'])}.",
            f"- Active bounds: {act}. Active constraints: {cons}."]
+    if o.get("differentiable") is False:
+        out.append(f"- The objective is not differentiable at the optimum (the jump of its slope across the "
+                   f"optimum along one variable is {_f(o['one_sided_jump'])} of its scale: a singular value an index takes crosses "
+                   "its neighbour somewhere in W, a symmetric design for instance): the optimum sits on that kink "
+                   "and the measure above is not a certificate of optimality there.")
     fin = p.get("with_final_extremes")
     if fin:
         out.insert(4, f"- With the final extremes the weighted sum at the search's optimum was {_f(fin['objective_before'])}; "
