@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .evaluate import _COND, Evaluator, _evaluate
+from .evaluate import _COND, Evaluator
 from .mechanisms import symbolic_model
 
 __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available"]

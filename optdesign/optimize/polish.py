@@ -338,9 +338,9 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
     if cols:
         A = np.stack(cols, axis=1)
         with threadpool_limits(limits=1, user_api="blas"):
-            lam, res = nnls(A, g)
+            _, res = nnls(A, g)
     else:
-        lam, res = np.zeros(0), float(np.linalg.norm(g))
+        res = float(np.linalg.norm(g))
     bounds = [f"{names[i]} at its lower bound" for i in np.flatnonzero(low)]
     bounds += [f"{names[i]} at its upper bound" for i in np.flatnonzero(high)]
     gn = float(np.linalg.norm(g))
