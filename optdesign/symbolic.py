@@ -55,6 +55,9 @@ class SymbolicModel:
                  closure: Callable, kinetic: Callable | None = None, potential: Callable | None = None):
         self.dof, self.n_act = dof, n_act
         self.param_names = tuple(param_names)
+        # the functions as written, for routes that build their own graphs
+        # (derivatives with respect to the parameters: optdesign.gradients)
+        self.closure_fn, self.kinetic_fn, self.potential_fn = closure, kinetic, potential
         x = ca.SX.sym("x", dof)
         q = ca.SX.sym("q", n_act)
         xd = ca.SX.sym("xd", dof)

@@ -15,6 +15,15 @@ import yaml
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+# Property-based tests draw the same cases on every run of the suite (a red
+# CI then always means the code changed), and new ones when asked:
+# OPTDESIGN_HYPOTHESIS=explore python -m pytest tests/test_hostile_*.py
+from hypothesis import settings as _hyp_settings  # noqa: E402
+
+_hyp_settings.register_profile("ci", derandomize=True, database=None)
+_hyp_settings.register_profile("explore", derandomize=False)
+_hyp_settings.load_profile(os.environ.get("OPTDESIGN_HYPOTHESIS", "ci"))
+
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
 #: small configs and batch files of the tests

@@ -107,11 +107,14 @@ def test_nothing_imports_the_cli():
     ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # evaluate: the one place that builds mechanisms from a config
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
+    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
+                             "optdesign.indices")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
     # units of what a user sees: from the config and the mechanism's declarations, through evaluate
     ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
-    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
-                            "optdesign.report_html", "optdesign.studies", "optdesign.units")),
+    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
+                            "optdesign.runs", "optdesign.report_html", "optdesign.studies", "optdesign.units")),
     ("optdesign.runs", ()),
     # paper studies sit beside the optimizer: they evaluate designs of a config
     ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices", "optdesign.config", "optdesign.evaluate",

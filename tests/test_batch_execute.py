@@ -30,7 +30,8 @@ def test_same_seed_same_result_whatever_jobs(small_batches):
     tasks, root, rows1, rows2 = small_batches
     assert [r["seed"] for r in rows1] == [1, 2]
     assert all(r["status"] == "complete" and r["this_batch"] == "new" for r in rows1 + rows2)
-    assert rows1[0]["objective"] != rows1[1]["objective"]          # the seeds do differ
+    # the seeds do differ (both may reach the same optimum: the box's corner)
+    assert _stage_files(root / "jobs1" / tasks[0].folder_name) != _stage_files(root / "jobs1" / tasks[1].folder_name)
     for a, b in zip(rows1, rows2):
         for k in SAME:
             assert a[k] == b[k], k

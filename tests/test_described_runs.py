@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _tiny(tmp_path, name):
     cfg = yaml.safe_load((ROOT / "configs" / name).read_text())
     cfg["workspace"]["points"] = 64
-    cfg["optimizer"].update(population=6, generations=2, elites=1,
+    cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1,
                             pareto={"algorithms": ["nsga2"], "population": 6, "generations": 2})
     f = tmp_path / name
     f.write_text(yaml.safe_dump(cfg, sort_keys=False))

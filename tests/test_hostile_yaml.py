@@ -82,8 +82,9 @@ def _duplicate(text: str, choice: int, flow: bool) -> tuple[str, str] | None:
         keyed = [i for i, line in enumerate(lines) if _BLOCK_KEY.match(line)]
         i = keyed[choice % len(keyed)]
         return "".join(lines[:i + 1] + [lines[i]] + lines[i + 1:]), _BLOCK_KEY.match(lines[i]).group(2)
+    # flow items in the YAML itself, not in a trailing comment ("# theta1, theta2, theta3: crank angles")
     items = [(i, m) for i, line in enumerate(lines) if not line.lstrip().startswith("#")
-             for m in _FLOW_ITEM.finditer(line)]
+             for m in _FLOW_ITEM.finditer(line.split(" #")[0])]
     if not items:
         return None
     i, m = items[choice % len(items)]

@@ -94,7 +94,7 @@ def test_paper_ga_on_pymoo_reference_problem():
 
     prob = get_problem("rastrigin", n_var=2)
     cfg = load_config(DATA / "p4s_two_var.yaml")
-    cfg.optimizer = dataclasses.replace(cfg.optimizer, population=40, generations=80)
+    cfg.optimizer = dataclasses.replace(cfg.optimizer, algorithm="paper_ga", population=40, generations=80)
     alg, cb = build_algorithm(cfg.optimizer)
     alg.setup(prob, termination=("n_gen", 80), seed=1, verbose=False, callback=cb)
     while alg.has_next():
@@ -121,7 +121,8 @@ def test_ga_finds_the_grid_optimum_and_beats_random_search():
     assert 0.2 < ra0 < 0.33 and np.radians(55) < phi0 < np.radians(74)  # an interior optimum
     prob = DesignProblem(Evaluator.from_config(cfg, ws), [index_term("dynamic", "min")])
     alg, cb = build_algorithm(cfg.optimizer)
-    alg.setup(prob, termination=("n_gen", cfg.optimizer.generations), seed=11, verbose=False, callback=cb)
+    alg.setup(prob, termination=("n_gen", cfg.optimizer.generations), seed=11, verbose=False,
+              **({"callback": cb} if cb else {}))
     while alg.has_next():
         alg.next()
     best = alg.opt[0]
@@ -159,7 +160,7 @@ def test_infeasible_designs_are_constraints_and_never_the_optimum():
     feasible = np.all(G <= 0, axis=1)
     assert 0.05 < feasible.mean() < 0.95
     alg, cb = build_algorithm(cfg.optimizer)
-    alg.setup(prob, termination=("n_gen", 6), seed=2, verbose=False, callback=cb)
+    alg.setup(prob, termination=("n_gen", 6), seed=2, verbose=False, **({"callback": cb} if cb else {}))
     while alg.has_next():
         alg.next()
     best = alg.opt[0]

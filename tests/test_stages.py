@@ -3,7 +3,8 @@
 What the plan must be follows from the paper's procedure (section 3.4): two
 single-objective runs (minimum, maximum) per weighted index, the weighted sum,
 the literal eq. 38 when an index is maximized, and a Pareto run per algorithm
-the config names when there are two objectives or more.  Each stage's problem
+the config names when there are two objectives or more; before them the
+pre-scan of the box (unless ``optimizer.prescan`` is 0) that seeds them.  Each stage's problem
 and algorithm are checked against the config they come from.
 """
 from __future__ import annotations
@@ -14,20 +15,22 @@ import pytest
 from conftest import CONFIGS, DATA, PAPER, edited_text
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.algorithms.moo.nsga3 import NSGA3
+from pymoo.algorithms.soo.nonconvex.de import DE
 from pymoo.algorithms.soo.nonconvex.ga import GA
 
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import Evaluator, workspace_of
 from optdesign.optimize.algorithms import reference_directions
-from optdesign.optimize.pipeline import stage_plan, stage_problem, stage_seed
+from optdesign.optimize.pipeline import prescan_size, stage_plan, stage_problem, stage_seed
 
+ALG = {"paper_ga": GA, "pymoo_ga": GA, "de": DE}
 OPTIMIZATION_CONFIGS = sorted(p for p in CONFIGS.glob("*.yaml")
                               if p.name != "batch_example.yaml" and load_config(p).free_variables)
 
 
 def test_the_paper_plan():
     names = [s.name for s in stage_plan(load_config(PAPER))]
-    assert names == ["single_dynamic_min", "single_dynamic_max", "single_stiffness_min", "single_stiffness_max",
+    assert names == ["prescan", "single_dynamic_min", "single_dynamic_max", "single_stiffness_min", "single_stiffness_max",
                      "single_isotropy_min", "single_isotropy_max", "weighted_sum", "weighted_sum_literal",
                      "pareto_nsga2", "pareto_nsga3"]
 
@@ -39,6 +42,7 @@ def test_plan_follows_the_config(path):
     opt = cfg.optimizer
     plan = stage_plan(cfg)
     weighted = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
+    assert [s.name for s in plan if s.kind == "prescan"] == (["prescan"] if prescan_size(opt) > 0 else [])
     singles = [s for s in plan if s.kind == "single"]
     assert [(s.index, s.sense) for s in singles] == [(k, m) for k in weighted for m in ("min", "max")]
     assert [s.name for s in plan if s.kind == "weighted"] == (
@@ -48,7 +52,7 @@ def test_plan_follows_the_config(path):
     assert [s.algorithm for s in plan if s.kind == "pareto"] == (list(opt.pareto_algorithms) if n_obj >= 2 else [])
     # the weighted sums come after every single run, the fronts last (the order stages are taken in)
     kinds = [s.kind for s in plan]
-    assert kinds == sorted(kinds, key=["single", "weighted", "pareto"].index)
+    assert kinds == sorted(kinds, key=["prescan", "single", "weighted", "pareto"].index)
     assert len({s.name for s in plan}) == len(plan)
     seeds = [stage_seed(opt.seed, i) for i in range(len(plan))]
     assert len(set(seeds)) == len(seeds) and all(0 <= s < 2 ** 32 for s in seeds)
@@ -57,6 +61,8 @@ def test_plan_follows_the_config(path):
     lo = {k: 1.0 for k in weighted}
     hi = {k: 2.0 for k in weighted}
     for st in plan:
+        if st.kind == "prescan":
+            continue
         prob, gens, factory = stage_problem(cfg, st, lo, hi, ev)
         alg, cb = factory()
         assert prob.n_var == len(cfg.free_variables) and list(prob.xl) == list(ev.xl)
@@ -64,12 +70,12 @@ def test_plan_follows_the_config(path):
         if st.kind == "single":
             (t,) = prob.terms
             assert (t.kind, t.name, t.sign) == ("index", st.index, 1.0 if st.sense == "min" else -1.0)
-            assert gens == opt.generations and type(alg) is GA and alg.pop_size == opt.population
+            assert gens == opt.generations and type(alg) is ALG[opt.algorithm] and alg.pop_size == opt.population
         elif st.kind == "weighted":
             (t,) = prob.terms
             assert t.kind == "weighted" and t.literal == st.literal
             assert list(t.weights) == weighted and t.weights == {k: opt.weights[k] for k in weighted}
-            assert gens == opt.generations and type(alg) is GA
+            assert gens == opt.generations and type(alg) is ALG[opt.algorithm]
         else:
             assert prob.n_obj == n_obj and gens == opt.pareto_generations
             assert [t.label() for t in prob.terms][:len(cfg.indices)] == [
@@ -101,7 +107,7 @@ def test_an_index_of_weight_zero_gets_no_single_run_but_stays_a_front_objective(
 def test_one_minimized_index_no_literal_stage_and_no_front():
     text = edited_text((DATA / "p4s_tiny.yaml").read_text(), {"indices: {dynamic: {}, stiffness: {}}": "indices: {dynamic: {}}"})
     plan = stage_plan(parse_config(text, source="one.yaml"))
-    assert [s.name for s in plan] == ["single_dynamic_min", "single_dynamic_max", "weighted_sum"]
+    assert [s.name for s in plan] == ["prescan", "single_dynamic_min", "single_dynamic_max", "weighted_sum"]
 
 
 def test_the_optimizer_layer_knows_vectors_not_mechanisms():

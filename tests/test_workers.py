@@ -75,20 +75,24 @@ def test_stop_file_and_a_vanished_parent(tmp_path):
 
 
 def _long(tmp_path, generations: int):
-    """A config whose first stage runs ``generations`` generations, and a fresh folder for it."""
+    """A config whose first GA stage runs ``generations`` generations, and a fresh folder for it."""
     text = edited_text(TINY.read_text(), {"generations: 4,": f"generations: {generations},"})
     cfg = parse_config(text, source=str(tmp_path / "long.yaml"))
     return cfg, text
 
 
+def _first_ga_stage(cfg):
+    return next(s for s in stage_plan(cfg) if s.kind == "single")
+
+
 def test_a_busy_worker_stops_at_the_boundary_and_its_stage_resumes(tmp_path):
     cfg, text = _long(tmp_path, 400)
     ws = sample(cfg.workspace, ("x", "y", "z"))
-    st = stage_plan(cfg)[0]
+    st = _first_ga_stage(cfg)
     folder = RunFolder.create(tmp_path / "runs", "w", text, 11, "k")
     pool = StagePool(1, folder.path)
     try:
-        pool.submit((0, st), st.name, _stage_in_worker, cfg, str(folder.path), st, 0, {}, {}, 11, ws)
+        pool.submit((0, st), st.name, _stage_in_worker, cfg, str(folder.path), st, 0, {}, {}, 11, ws, None)
         ck = folder.checkpoint_path(st.name)
         deadline = time.time() + 120
         while not ck.exists() and time.time() < deadline:
@@ -141,11 +145,11 @@ def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
         from optdesign.runs import RunFolder
         from optdesign.workspace import sample
         cfg = load_config({str(tmp_path / 'long.yaml')!r})
-        st = stage_plan(cfg)[0]
+        st = next(s for s in stage_plan(cfg) if s.kind == "single")
         folder = RunFolder.create({str(tmp_path / 'runs')!r}, "orphan", open({str(tmp_path / 'long.yaml')!r}).read(), 11, "k", exact=True)
         pool = StagePool(1, folder.path)
         pool.submit((0, st), st.name, _stage_in_worker, cfg, str(folder.path), st, 0, {{}}, {{}}, 11,
-                    sample(cfg.workspace, ("x", "y", "z")))
+                    sample(cfg.workspace, ("x", "y", "z")), None)
         while not folder.checkpoint_path(st.name).exists():
             time.sleep(0.01)
         print("busy", flush=True)
@@ -164,7 +168,7 @@ def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
     finally:
         proc.kill()
     folder = RunFolder(tmp_path / "runs" / "orphan")
-    meta, _ = folder.load_checkpoint(stage_plan(cfg)[0].name)   # whole, and data only
+    meta, _ = folder.load_checkpoint(_first_ga_stage(cfg).name)   # whole, and data only
     assert 1 <= meta["history"]["rows"] == meta["n_iter"] - 1 < 100000
 
 

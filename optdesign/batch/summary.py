@@ -4,10 +4,21 @@ the tables (CSV and Markdown) and the plot of the spread.
 Rows are read back from the run folders (never from the workers' memory), so
 ``optdesign summarize`` gives the same table for any set of folders, whoever
 wrote them.
+
+Seeds are compared on one scale: each run normalizes its weighted sum by the
+extremes its own stages found, so a run whose extreme search fell short
+scores differently for the same design.  The runs that share a design space
+(same mechanism, parameters, design variables and bounds, workspace, indices
+and constraints: the ``design_space`` column) pool their extremes (the
+smallest minimum and the largest maximum of each index over their
+``normalization`` records and their optima), and every run's optimum is
+re-expressed on them (``objective_pooled``, with the run's own weights).  The
+best seed and the spread across seeds are those of ``objective_pooled``.
 """
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -23,9 +34,11 @@ from ..tables import fmt_g, table
 from .schema import sweep_label
 from .tasks import config_key
 
-__all__ = ["row_from_folder", "collect_folders", "group_stats", "summary_tables", "summary_plot", "summarize"]
+__all__ = ["row_from_folder", "collect_folders", "group_stats", "summary_tables", "summary_plot", "summarize",
+           "pooled_rows", "design_space_key"]
 
-_FIXED_COLS = ["config", "sweep", "config_key", "run_key", "seed", "status", "objective"]
+_FIXED_COLS = ["config", "sweep", "config_key", "design_space", "run_key", "seed", "status", "objective_pooled",
+               "objective"]
 _TAIL_COLS = ["wall_time_s", "evaluations", "this_batch", "error", "folder"]
 
 
@@ -45,7 +58,8 @@ def row_from_folder(path: str | os.PathLike) -> dict:
     except RunFolderError:
         text = ""
     row: dict[str, Any] = {"config": m.get("name"), "sweep": sweep_label(m.get("sweep")),
-                           "config_key": config_key(text) if text else None, "run_key": m.get("run_key"),
+                           "config_key": config_key(text) if text else None,
+                           "design_space": design_space_key(text) if text else None, "run_key": m.get("run_key"),
                            "seed": m.get("seed"), "status": m.get("status"), "objective": None}
     res_path = folder.path / "results.json"
     if m.get("status") == "complete" and res_path.exists():
@@ -60,12 +74,84 @@ def row_from_folder(path: str | os.PathLike) -> dict:
             row[f"opt_{k}"] = v
         for k, v in (r.get("global_indices") or {}).items():
             row[k] = v
+        norm = _normalization(r.get("normalization"))
+        if norm:
+            row["_normalization"] = norm
     row["wall_time_s"] = m.get("wall_time_s")
     row["evaluations"] = m.get("evaluations")
     if m.get("error"):
         row["error"] = m["error"]
     row["folder"] = str(folder.path)
     return row
+
+
+def design_space_key(config_text: str) -> str | None:
+    """A short hash of what defines a config's design space and its indices
+    (mechanism, parameters, design variables and bounds, workspace, indices,
+    constraints), or None if the text is not a valid config.  Runs with the
+    same key have the same feasible designs and the same index values."""
+    from ..config import ConfigError, parse_config
+
+    try:
+        cfg = parse_config(config_text, source="config.yaml")
+    except (ConfigError, ValueError, TypeError):
+        return None
+    opt = cfg.optimizer
+    space = {"mechanism": cfg.raw.get("mechanism"), "parameters": cfg.parameters,
+             "design_variables": {k: [dv.value, dv.bounds] for k, dv in cfg.design_variables.items()},
+             "workspace": repr(cfg.workspace),
+             "indices": {k: [s.kind, s.convention, sorted((s.options or {}).items())] for k, s in cfg.indices.items()},
+             "constraints": [opt.singularity_threshold, opt.stroke_limits, opt.min_transmission]}
+    text = json.dumps(space, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
+
+
+def _normalization(norm) -> dict:
+    """The numeric part of a results.json normalization record (index -> min,
+    max, sense, weight); entries that are not well-formed are left out."""
+    out = {}
+    if not isinstance(norm, dict):
+        return out
+    for k, v in norm.items():
+        if (isinstance(v, dict) and all(isinstance(v.get(x), (int, float)) and not isinstance(v.get(x), bool)
+                                        and math.isfinite(v[x]) for x in ("min", "max", "weight"))
+                and v.get("sense") in ("min", "max")):
+            out[k] = {"min": float(v["min"]), "max": float(v["max"]), "weight": float(v["weight"]), "sense": v["sense"]}
+    return out
+
+
+def pooled_rows(rows: Sequence[dict]) -> list[dict]:
+    """Copies of the rows with ``objective_pooled``: the run's optimum on the
+    extremes pooled over the complete runs of its design space (None where a
+    run has no normalization or index values)."""
+    pool: dict = {}
+    for r in rows:
+        norm, ds = r.get("_normalization"), r.get("design_space")
+        if r.get("status") != "complete" or not norm or ds is None:
+            continue
+        p = pool.setdefault(ds, {})
+        for k, v in norm.items():
+            vals = [v["min"], v["max"]] + ([float(r[k])] if isinstance(r.get(k), (int, float)) and math.isfinite(r[k]) else [])
+            lo, hi = p.get(k, (math.inf, -math.inf))
+            p[k] = (min([lo] + vals), max([hi] + vals))
+    out = []
+    for r in rows:
+        r = dict(r)
+        r["objective_pooled"] = None
+        norm, p = r.get("_normalization"), pool.get(r.get("design_space"))
+        if r.get("status") == "complete" and norm and p:
+            f = 0.0
+            for k, v in norm.items():
+                x = r.get(k)
+                if not isinstance(x, (int, float)) or not math.isfinite(x):
+                    f = None
+                    break
+                lo, hi = p[k]
+                t = (x - lo) / (hi - lo) if hi > lo else 0.0
+                f += v["weight"] * (1.0 - t if v["sense"] == "max" else t)
+            r["objective_pooled"] = f
+        out.append(r)
+    return out
 
 
 def collect_folders(paths: Sequence[str | os.PathLike]) -> list[Path]:
@@ -105,7 +191,7 @@ def _columns(rows: Sequence[dict]) -> list[str]:
     keys: list[str] = []
     for r in rows:
         for k in r:
-            if k not in keys:
+            if k not in keys and not k.startswith("_"):
                 keys.append(k)
     fixed = [k for k in _FIXED_COLS if k in keys]
     tail = [k for k in _TAIL_COLS if k in keys]
@@ -115,10 +201,11 @@ def _columns(rows: Sequence[dict]) -> list[str]:
 
 
 def _quantities(rows: Sequence[dict]) -> list[str]:
-    """Numeric result columns: objective, the optimum's parameters, the indices, wall time."""
+    """Numeric result columns: the objective on the pooled scale and the run's
+    own, the optimum's parameters, the indices, wall time."""
     cols = _columns(rows)
     idx = [k for k in cols if k not in _FIXED_COLS and k not in _TAIL_COLS and not k.startswith("opt_")]
-    return ["objective"] + [k for k in cols if k.startswith("opt_")] + idx + ["wall_time_s"]
+    return ["objective_pooled", "objective"] + [k for k in cols if k.startswith("opt_")] + idx + ["wall_time_s"]
 
 
 def group_stats(rows: Sequence[dict]) -> list[dict]:
@@ -126,10 +213,12 @@ def group_stats(rows: Sequence[dict]) -> list[dict]:
     config_key), in order of first appearance.
 
     Each entry: ``config``, ``sweep``, ``config_key``, ``runs``, ``complete``,
-    ``seeds``, ``best_seed`` (the complete run of least objective), and
-    ``stats[q] = {mean, std (ddof=1), min, max, best}`` for every quantity
-    over the complete runs (``best``: the value in the best run).
+    ``seeds``, ``best_seed`` (the complete run of least objective on the
+    pooled scale, see :func:`pooled_rows`), and ``stats[q] = {mean, std
+    (ddof=1), min, max, best}`` for every quantity over the complete runs
+    (``best``: the value in the best run).
     """
+    rows = pooled_rows(rows)
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
         groups.setdefault((r.get("config"), r.get("config_key")), []).append(r)
@@ -137,7 +226,8 @@ def group_stats(rows: Sequence[dict]) -> list[dict]:
     out = []
     for (name, ck), rs in groups.items():
         done = [r for r in rs if r.get("status") == "complete" and r.get("objective") is not None]
-        best = min(done, key=lambda r: (r["objective"], r["seed"])) if done else None
+        score = lambda r: r["objective_pooled"] if r.get("objective_pooled") is not None else r["objective"]  # noqa: E731
+        best = min(done, key=lambda r: (score(r), r["seed"])) if done else None
         stats = {}
         for q in qs:
             mean, sd, lo, hi = _stats(r.get(q) for r in done)
@@ -153,7 +243,7 @@ def group_stats(rows: Sequence[dict]) -> list[dict]:
 def summary_tables(rows: Sequence[dict]) -> tuple[str, str]:
     """(CSV of every run, Markdown: an overview line per resolved config, then
     per config the mean, std, min, max and best-run value of each quantity)."""
-    rows = sorted(rows, key=lambda r: (str(r.get("config")), str(r.get("config_key")), r.get("seed") or 0))
+    rows = sorted(pooled_rows(rows), key=lambda r: (str(r.get("config")), str(r.get("config_key")), r.get("seed") or 0))
     keys = _columns(rows)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore", lineterminator="\n")
@@ -165,9 +255,11 @@ def summary_tables(rows: Sequence[dict]) -> tuple[str, str]:
     md = ["## Overview", ""]
     md.append(table(["config", "sweep", "config key", "runs", "complete", "objective mean", "std", "best", "best seed"],
                     [[g["config"], g["sweep"] or "-", g["config_key"] or "-", g["runs"], g["complete"],
-                      fmt_g(g["stats"]["objective"]["mean"]), fmt_g(g["stats"]["objective"]["std"]),
-                      fmt_g(g["stats"]["objective"]["best"]), g["best_seed"] if g["best_seed"] is not None else "-"]
+                      fmt_g(g["stats"]["objective_pooled"]["mean"]), fmt_g(g["stats"]["objective_pooled"]["std"]),
+                      fmt_g(g["stats"]["objective_pooled"]["best"]), g["best_seed"] if g["best_seed"] is not None else "-"]
                      for g in groups]))
+    md.append("")
+    md.append(_pooled_note(rows))
     md.append("")
     for g in groups:
         head = f"### {g['config']} [{g['config_key']}]" + (f": {g['sweep']}" if g["sweep"] else "")
@@ -210,6 +302,21 @@ def _quantity_labels(rows: Sequence[dict], qs: Sequence[str]) -> dict[str, str]:
     return out
 
 
+def _pooled_note(rows: Sequence[dict]) -> str:
+    """The Markdown line that says on which scale the objectives are compared."""
+    spaces: dict = {}
+    for r in rows:
+        if r.get("objective_pooled") is not None:
+            spaces.setdefault(r["design_space"], set()).add(r.get("config_key"))
+    n = sum(1 for r in rows if r.get("objective_pooled") is not None)
+    if not n:
+        return "Objectives: each run's own (no run records its normalization)."
+    return (f"Objectives on one scale: each index normalized by its extremes pooled over the {n} complete runs of "
+            f"its design space ({len(spaces)} design space(s), column `design_space`), every run's optimum "
+            "re-expressed on them with its own weights (`objective_pooled`; the best seed and the spread are "
+            "those of this column). `objective` is each run's own, on the extremes its own stages found.")
+
+
 def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
     """PNG of the spread across seeds: one panel per quantity (objective and
     each global index), one column of points per resolved config (one point
@@ -222,7 +329,7 @@ def summary_plot(rows: Sequence[dict], path: str | os.PathLike) -> Path | None:
     groups = group_stats(rows)
     if not any(g["complete"] for g in groups):
         return None
-    rows = [r for r in rows if r.get("status") == "complete" and r.get("objective") is not None]
+    rows = [r for r in pooled_rows(rows) if r.get("status") == "complete" and r.get("objective") is not None]
     qs = [q for q in _quantities(rows) if not q.startswith("opt_") and q != "wall_time_s"]
     ncol = 2 if len(qs) > 3 else len(qs)
     nrow = math.ceil(len(qs) / ncol)

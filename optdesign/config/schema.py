@@ -43,7 +43,7 @@ class IndexSpec:
 class OptimizerSpec:
     """Settings of the weighted-sum GA and of the Pareto runs (see optdesign.optimize)."""
 
-    algorithm: str = "paper_ga"
+    algorithm: str = "de"          # pymoo's DE (docs/config.md); the paper's GA: "paper_ga"
     population: int = 50
     generations: int = 100
     crossover_probability: float = 0.8
@@ -61,6 +61,9 @@ class OptimizerSpec:
     stroke_limits: tuple[float, float] | None = None
     min_transmission: float = 0.0
     checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
+    prescan: int | None = None     # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none;
+                                   # None: the smaller of 2048 and population x generations
+    polish: int = 3                # starts of the gradient polish after each stage; 0 = no polish
 
 
 @dataclass

@@ -23,7 +23,7 @@ _NOT_FOR = {
 }
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "normalization", "pareto",
-            "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission",
+            "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission", "prescan", "polish",
             "checkpoint_interval"}
 
 
@@ -147,7 +147,7 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
     r.only(opt, path, OPT_KEYS)
     kw: dict[str, Any] = {}
     if "algorithm" in opt:
-        kw["algorithm"] = r.string(opt["algorithm"], f"{path}.algorithm", choices={"paper_ga", "pymoo_ga"})
+        kw["algorithm"] = r.string(opt["algorithm"], f"{path}.algorithm", choices={"paper_ga", "pymoo_ga", "de"})
     for key, lo in (("population", 4), ("generations", 1), ("elites", 0)):
         if key in opt:
             kw[key] = r.integer(opt[key], f"{path}.{key}", minimum=lo, maximum=100_000)
@@ -201,6 +201,10 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         if x >= 1:
             r.fail(f"{path}.min_transmission", f"expected a value in [0, 1), got {x:g}")
         kw["min_transmission"] = x
+    if "prescan" in opt:
+        kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
+    if "polish" in opt:
+        kw["polish"] = r.integer(opt["polish"], f"{path}.polish", minimum=0, maximum=100)
     if "checkpoint_interval" in opt:
         kw["checkpoint_interval"] = r.number(opt["checkpoint_interval"], f"{path}.checkpoint_interval", nonneg=True)
     return OptimizerSpec(**kw)

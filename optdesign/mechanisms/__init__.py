@@ -91,4 +91,15 @@ def get(name: str) -> type[Mechanism]:
     return _REGISTRY[name]
 
 
-__all__ = ["Mechanism", "DescriptionError", "register", "register_described", "describe", "available", "get"]
+def symbolic_model(name: str):
+    """The builder of a registered mechanism's CasADi model (the module-level
+    ``symbolic_model`` of the module that defines it, see optdesign.symbolic),
+    or None: described mechanisms and mechanisms without one."""
+    if name in _DESCRIBED or name not in _MODULES:
+        return None
+    get(name)
+    return getattr(importlib.import_module(_MODULES[name]), "symbolic_model", None)
+
+
+__all__ = ["Mechanism", "DescriptionError", "register", "register_described", "describe", "available", "get",
+           "symbolic_model"]

@@ -1,4 +1,4 @@
-"""The algorithms a stage runs: the paper's GA, pymoo's GA, NSGA-II, NSGA-III.
+"""The algorithms a stage runs: pymoo's DE, the paper's GA, pymoo's GA, NSGA-II, NSGA-III.
 
 :func:`build_algorithm` takes the optimizer settings (plain data) and returns
 a fresh pymoo algorithm and the callbacks its operators need; a resumed stage
@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.algorithms.moo.nsga3 import NSGA3
+from pymoo.algorithms.soo.nonconvex.de import DE
 from pymoo.algorithms.soo.nonconvex.ga import GA
 from pymoo.operators.sampling.rnd import FloatRandomSampling
 from pymoo.operators.selection.tournament import TournamentSelection, compare
@@ -27,7 +28,7 @@ from pymoo.util.ref_dirs import get_reference_directions
 from .operators import (AdaptiveGaussianMutation, AdaptiveMutationCallback, ArithmeticCrossover,
                         ElitistGenerationalSurvival, RouletteSelection)
 
-__all__ = ["build_algorithm", "cv_then_random", "reference_directions", "ALGORITHMS"]
+__all__ = ["build_algorithm", "cv_then_random", "reference_directions", "ALGORITHMS", "SeededSampling", "seed_count"]
 
 #: what ``which`` may name (None: the config's GA)
 ALGORITHMS = ("nsga2", "nsga3")
@@ -55,11 +56,35 @@ def reference_directions(n_obj: int) -> np.ndarray:
     return get_reference_directions("das-dennis", n_obj, n_partitions=parts)
 
 
-def build_algorithm(opt, n_obj: int = 1, which: str | None = None):
-    """``(algorithm, callback)``: the GA of the optimizer settings ``opt``
-    (``paper_ga`` or ``pymoo_ga``), or NSGA-II/III (``which``), and the
-    callback its operators need after each generation (the paper GA's
-    adaptive mutation) or None."""
+class SeededSampling(FloatRandomSampling):
+    """Uniform random designs in the bounds whose first rows are replaced by
+    given seeds (the pre-scan's best designs): the generator draws what it
+    draws without seeds, so seeded and unseeded runs share their random stream."""
+
+    def __init__(self, seeds=None):
+        super().__init__()
+        self.seeds = np.zeros((0, 0)) if seeds is None else np.asarray(seeds, dtype=float)
+
+    def _do(self, problem, n_samples, *args, random_state=None, **kwargs):
+        X = super()._do(problem, n_samples, *args, random_state=random_state, **kwargs)
+        k = min(len(self.seeds), n_samples)
+        if k:
+            X[:k] = np.clip(self.seeds[:k], problem.xl, problem.xu)
+        return X
+
+
+def seed_count(population: int) -> int:
+    """How many seeds a single-objective population of this size starts with (a tenth, at least one)."""
+    return max(1, population // 10)
+
+
+def build_algorithm(opt, n_obj: int = 1, which: str | None = None, seeds=None):
+    """``(algorithm, callback)``: the single-objective search of the optimizer
+    settings ``opt`` (``de``, ``paper_ga`` or ``pymoo_ga``), or NSGA-II/III
+    (``which``), and the callback its operators need after each generation
+    (the paper GA's adaptive mutation) or None.  ``seeds`` (k, n): designs
+    the initial population of a single-objective search starts with."""
+    sampling = SeededSampling(seeds)
     if which == "nsga2":
         return NSGA2(pop_size=opt.pareto_population), None
     if which == "nsga3":
@@ -69,9 +94,11 @@ def build_algorithm(opt, n_obj: int = 1, which: str | None = None):
     if which is not None:
         raise ValueError(f"unknown algorithm {which!r}; expected one of {', '.join(ALGORITHMS)}")
     if opt.algorithm == "pymoo_ga":
-        return GA(pop_size=opt.population, eliminate_duplicates=True), None
+        return GA(pop_size=opt.population, sampling=sampling, eliminate_duplicates=True), None
+    if opt.algorithm == "de":
+        return DE(pop_size=opt.population, sampling=sampling), None
     mutation = AdaptiveGaussianMutation(prob=opt.mutation_probability)
-    alg = GA(pop_size=opt.population, sampling=FloatRandomSampling(), selection=RouletteSelection(opt.fitness_scaling),
+    alg = GA(pop_size=opt.population, sampling=sampling, selection=RouletteSelection(opt.fitness_scaling),
              crossover=ArithmeticCrossover(prob=opt.crossover_probability), mutation=mutation,
              survival=ElitistGenerationalSurvival(opt.elites), n_offsprings=opt.population - opt.elites,
              eliminate_duplicates=False)

@@ -37,8 +37,8 @@ __all__ = ["capture", "restore", "CheckpointError"]
 
 _FIELDS = ("X", "F", "G", "H", "CV")
 _GRADIENTS = ("_dF", "_dG", "_dH", "_ddF", "_ddG", "_ddH")
-#: per-design values pymoo's survivals set
-PYMOO_DATA = ("n_gen", "n_iter", "rank", "crowding", "niche", "dist_to_niche")
+#: per-design values pymoo's survivals set (DE: ``index``, the parent an offspring replaces)
+PYMOO_DATA = ("n_gen", "n_iter", "rank", "crowding", "niche", "dist_to_niche", "index")
 _TYPES = {"int": int, "float": float, "bool": bool, "np.int64": np.int64, "np.float64": np.float64,
           "np.bool_": np.bool_}
 _STORED = {"int": np.int64, "np.int64": np.int64, "float": np.float64, "np.float64": np.float64,

@@ -1,14 +1,21 @@
-"""The paper's optimization as a plan of resumable GA stages.
+"""The paper's optimization as a plan of resumable stages.
 
-1. For every index with a positive weight, two single-objective GA runs give its
-   minimum and maximum over the design bounds (section 3.4, before eq. 38).
-2. The normalized weighted sum (eq. 38-40) is minimized by the same GA.  Each
-   index is scaled to [0, 1] by its min and max; an index to be maximized
-   (stiffness) is flipped so that 0 is its best value.  The paper's literal
-   eq. 38 (no flip) is run as a separate stage so both can be compared.
+0. A quasi-random pre-scan of the design box (:mod:`.prescan`) whose best
+   feasible designs seed the single-objective searches and their polish.
+1. For every index with a positive weight, two single-objective runs give its
+   minimum and maximum over the design bounds (section 3.4, before eq. 38),
+   each ending in a gradient polish of its best designs (:mod:`.polish`).
+2. The normalized weighted sum (eq. 38-40) is minimized by the same search
+   and polished.  Each index is scaled to [0, 1] by its min and max (the
+   extremes of the pre-scan and the single-objective stages,
+   :mod:`.normalization`); an index to be maximized (stiffness) is flipped so
+   that 0 is its best value.  The paper's literal eq. 38 (no flip) is run as
+   a separate stage so both can be compared.
 3. NSGA-II and NSGA-III give the Pareto front of the indices (and of any extra
-   objective the config names); the weighted-sum optimum and the named designs
-   are placed against it (:mod:`.results`).
+   objective the config names), each front design polished onto the front;
+   the weighted-sum optimum and the named designs are placed against it.
+   An extreme a later stage goes beyond is updated and every normalized
+   objective recomputed from the final extremes (:mod:`.final`).
 
 Each stage runs in pymoo's loop with data-only checkpoints (:mod:`.stage`),
 in this process or a worker process (:mod:`.workers`); every stage has its
@@ -18,27 +25,34 @@ from __future__ import annotations
 
 import signal
 import time
+
+import numpy as np
 from dataclasses import dataclass, field
 
 from ..config import Config
 from ..evaluate import Evaluator, workspace_of
 from ..fast import set_compile_notice
+from ..gradients import ad_available
 from ..runs import RunFolder
 from .algorithms import build_algorithm
 from .problem import DesignProblem, extra_term, index_term, weighted_sum_term
 from .progress import Progress
-from .results import final_results, finished_stage, stage_summary
+from .algorithms import seed_count
+from .final import final_results
+from .normalization import bounds_of, fold_extremes
+from .prescan import best_designs, run_prescan
+from .results import finished_stage, rows_csv, stage_summary
 from .stage import run_stage
 from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
 
-__all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "build_algorithm",
+__all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "prescan_size", "build_algorithm",
            "default_jobs", "PipelineResult"]
 
 
 @dataclass
 class Stage:
     name: str
-    kind: str                      # "single" | "weighted" | "pareto"
+    kind: str                      # "prescan" | "single" | "weighted" | "pareto"
     index: str | None = None
     sense: str | None = None       # for single: "min" gives the index's minimum, "max" its maximum
     algorithm: str | None = None   # for pareto
@@ -48,7 +62,7 @@ class Stage:
 def stage_plan(cfg: Config) -> list[Stage]:
     opt = cfg.optimizer
     names = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
-    plan = []
+    plan = [Stage("prescan", "prescan")] if prescan_size(opt) > 0 else []
     for k in names:
         plan += [Stage(f"single_{k}_min", "single", k, "min"), Stage(f"single_{k}_max", "single", k, "max")]
     plan.append(Stage("weighted_sum", "weighted"))
@@ -57,6 +71,12 @@ def stage_plan(cfg: Config) -> list[Stage]:
     if len(cfg.indices) + len(opt.extra_objectives) >= 2:
         plan += [Stage(f"pareto_{a}", "pareto", algorithm=a) for a in opt.pareto_algorithms]
     return plan
+
+
+def prescan_size(opt) -> int:
+    """Designs of the pre-scan: ``optimizer.prescan``, by default the smaller of
+    2048 and one single-objective stage's budget (population x generations)."""
+    return int(opt.prescan) if opt.prescan is not None else min(2048, opt.population * opt.generations)
 
 
 def stage_seed(seed: int, i: int) -> int:
@@ -68,8 +88,9 @@ def _ordered(cfg: Config, d: dict) -> dict:
     return {k: d[k] for k in cfg.indices if k in d}
 
 
-def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluator):
-    """(problem, generations, algorithm factory) of a stage."""
+def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluator, seeds=None):
+    """(problem, generations, algorithm factory) of a stage (``seeds``: the
+    designs a single-objective search starts with)."""
     opt = cfg.optimizer
     if st.kind == "single":
         terms = [index_term(st.index, st.sense)]
@@ -84,20 +105,30 @@ def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluat
         terms += [extra_term(e, evaluator.extra[e].sense) for e in opt.extra_objectives]
         return (DesignProblem(evaluator, terms), opt.pareto_generations,
                 lambda: build_algorithm(opt, len(terms), st.algorithm))
-    return DesignProblem(evaluator, terms), opt.generations, lambda: build_algorithm(opt)
+    return DesignProblem(evaluator, terms), opt.generations, lambda: build_algorithm(opt, seeds=seeds)
 
 
 def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, hi: dict, seed: int, ws,
                   progress: Progress | None = None, budget: dict | None = None, stop: StopRequest | None = None,
-                  evaluator: Evaluator | None = None, manifest: bool = True) -> dict:
+                  evaluator: Evaluator | None = None, manifest: bool = True, seeds=None) -> dict:
     """Run (or resume) stage ``i`` of the plan and write its files."""
     evaluator = evaluator or Evaluator.from_config(cfg, ws)
-    problem, gens, factory = stage_problem(cfg, st, lo, hi, evaluator)
+    if st.kind == "prescan":
+        res, rows = run_prescan(evaluator, prescan_size(cfg.optimizer), stage_seed(seed, i))
+        folder.stage_dir(st.name)
+        folder.write_text(f"stages/{st.name}/population.csv", rows_csv(_display(cfg, rows, None)))
+        folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
+        return res
+    seeds = None if seeds is None else np.asarray(seeds, dtype=float).reshape(-1, len(evaluator.free))
+    problem, gens, factory = stage_problem(cfg, st, lo, hi, evaluator, seeds)
     alg, history = run_stage(folder, st.name, problem, factory, gens, stage_seed(seed, i), progress or Progress(False),
                              cfg.optimizer.checkpoint_interval, evaluator.index_names, evaluator.free,
                              evaluator.index_names + list(evaluator.extra), stop, budget,
                              describe=lambda rec: describe_row(cfg, st, rec))
-    res = stage_summary(folder, st, alg, problem, evaluator, history, lambda rows, s: _display(cfg, rows, s))
+    if progress is not None and cfg.optimizer.polish > 0:
+        progress.note(f"{st.name}: polishing")
+    res = stage_summary(folder, st, alg, problem, evaluator, history, seeds, cfg.optimizer.polish,
+                        display=lambda rows, s: _display(cfg, rows, s))
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
 
@@ -152,13 +183,28 @@ def _record(st: Stage, seed: int, i: int):
     return {"seed": stage_seed(seed, i), "kind": st.kind}, ((f"{st.name}.csv",) if st.kind == "pareto" else ())
 
 
-def _stage_in_worker(cfg, path, st, i, lo, hi, seed, ws, stop=None) -> dict:
+def _stage_in_worker(cfg, path, st, i, lo, hi, seed, ws, seeds, stop=None) -> dict:
     """One stage in a worker process; the main process records it in the manifest
     (and shows its progress, sent through the pool's queue)."""
     from .workers import worker_progress
 
     return execute_stage(cfg, RunFolder(path), st, i, lo, hi, seed, ws, progress=worker_progress(), stop=stop,
-                         manifest=False)
+                         manifest=False, seeds=seeds)
+
+
+def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evaluator: Evaluator):
+    """The designs a single-objective stage starts from: the pre-scan's best for
+    its objective (a tenth of the population) and, for a weighted sum, the
+    single-objective stages' answers; None for the other stages."""
+    if st.kind not in ("single", "weighted"):
+        return None
+    problem, _, _ = stage_problem(cfg, st, lo, hi, evaluator)
+    k = seed_count(cfg.optimizer.population)
+    X = best_designs(stages.get("prescan"), problem.terms[0], k, xl=evaluator.xl, xu=evaluator.xu)
+    if st.kind == "weighted":
+        done = [evaluator.vector(r["design"]) for r in stages.values() if r.get("kind") == "single"]
+        X = np.concatenate([np.array(done).reshape(-1, len(evaluator.free)), X])
+    return np.clip(X, evaluator.xl, evaluator.xu).tolist()
 
 
 @dataclass
@@ -186,8 +232,10 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     plan = [s for s in stage_plan(cfg) if pareto or s.kind != "pareto"]
     budget = {"left": stop_after}
     jobs = 1 if stop_after is not None else max(1, int(jobs))
-    stages, lo, hi = {}, {}, {}
+    stages = {}
     singles = [st.name for st in plan if st.kind == "single"]
+    first = [st.name for st in plan if st.kind == "prescan"]
+    weighted_names = [k for k in cfg.indices if cfg.optimizer.weights.get(k, 0) > 0]
     try:
         ws = workspace_of(cfg)
         evaluator = Evaluator.from_config(cfg, ws)
@@ -197,7 +245,13 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             if st.kind == "single":
                 if not res["feasible"]:
                     raise RuntimeError(f"no feasible design found for {st.index} ({st.sense}); widen the bounds or relax the constraints")
-                (lo if st.sense == "min" else hi)[st.index] = res["value"]
+
+        def inputs(st: Stage):
+            """(lo, hi, seeds) a stage starts with: the extremes of the pre-scan and the
+            single-objective stages (folded in the plan's order) and its seeds."""
+            ordered = {s.name: stages[s.name] for s in plan if s.name in stages}
+            lo, hi = bounds_of(fold_extremes(ordered, upto_singles=True)[0], weighted_names)
+            return lo, hi, stage_seeds(cfg, st, ordered, lo, hi, evaluator)
 
         todo = []   # in the plan's order; finished stages (a resumed run) are taken as they are
         for i, st in enumerate(plan):
@@ -206,26 +260,34 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         progress.plan([(st.name, *stage_work(cfg, st)) for st in plan], done=list(stages))
 
         def take():
-            """The next stage that can start (the weighted sums once the single runs are done), or None."""
+            """The next stage that can start (every stage after the pre-scan, the
+            weighted sums once the single runs are done), or None."""
             for n, (i, st) in enumerate(todo):
+                if st.kind != "prescan" and not all(s in stages for s in first):
+                    continue
                 if st.kind != "weighted" or all(s in stages for s in singles):
                     return todo.pop(n)
             return None
 
-        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path,
-                         warm=lambda: evaluator(evaluator.vector(cfg.initial_design())[None, :]),
-                         events=progress.enabled)
+        def warm():
+            evaluator(evaluator.vector(cfg.initial_design())[None, :])
+            if cfg.optimizer.polish > 0:
+                ad_available(evaluator)     # builds the CasADi derivatives once per process
+
+        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.enabled)
         progress.poll = pool.poll_progress
         report_warm = False
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:
                 i, st = nxt
-                pool.submit((i, st), st.name, _stage_in_worker, cfg, str(folder.path), st, i, dict(lo), dict(hi),
-                            seed, ws)
+                lo, hi, seeds = inputs(st)
+                pool.submit((i, st), st.name, _stage_in_worker, cfg, str(folder.path), st, i, lo, hi, seed, ws, seeds)
             nxt = take()
             if nxt is not None:
                 i, st = nxt
-                record(st, execute_stage(cfg, folder, st, i, lo, hi, seed, ws, progress, budget, stop, evaluator))
+                lo, hi, seeds = inputs(st)
+                record(st, execute_stage(cfg, folder, st, i, lo, hi, seed, ws, progress, budget, stop, evaluator,
+                                         seeds=seeds))
             elif pool.running:
                 report_warm = report_warm or warm_plots()   # idle until a worker finishes
                 pool.wait_any(stop, progress)
@@ -236,7 +298,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             stop.check()
         pool.release()   # the workers exit while the results and the report are written
         stages = {st.name: stages[st.name] for st in plan}
-        results = final_results(cfg, seed, stages, _ordered(cfg, lo), _ordered(cfg, hi), ws, evaluator)
+        results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish)
         wall = round(wall_before + time.perf_counter() - t0, 3)
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
         results.update(wall_time_s=wall, evaluations=evals)

@@ -9,10 +9,10 @@ import numpy as np
 from pymoo.indicators.hv import HV
 
 from ..runs import RunFolder, RunFolderError
-from .problem import weighted_sum, weighted_sum_term
+from .refine import merge_observed, observed, refine_front, refine_single
 
 __all__ = ["rows_csv", "population_rows", "stage_summary", "check_stage_result", "finished_stage",
-           "final_results", "place_against_front"]
+           "place_against_front"]
 
 
 def rows_csv(rows: list[dict]) -> str:
@@ -45,11 +45,46 @@ def population_rows(evaluator, problem, pop) -> list[dict]:
     return rows
 
 
-def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, history: list, display=None) -> dict:
-    """Write a finished stage's history.csv, population.csv (and front CSV)
-    and return its result (the caller writes result.json).  ``display(rows,
-    stage)``: the rows as the CSV files show them (units, own sense); the
-    result keeps the internal rows (SI, minimized objectives)."""
+def _rows_of(evaluator, problem, X: np.ndarray) -> tuple[list[dict], dict]:
+    """Population rows (as :func:`population_rows`) of designs X evaluated afresh, and the evaluation."""
+    out: dict = {}
+    problem._evaluate(np.atleast_2d(X), out)
+    designs = evaluator.designs(X)
+    rows = []
+    for i in range(len(X)):
+        r = {k: float(v[i]) for k, v in designs.items()}
+        for j, t in enumerate(problem.terms):
+            r[f"objective_{t.label()}"] = float(out["F"][i, j])
+        for k in evaluator.index_names:
+            r[k] = float(out[f"index_{k}"][i])
+        r["cv"] = float(np.sum(np.maximum(out["G"][i], 0.0)))
+        for j, c in enumerate(problem.constraint_names):
+            r[f"g_{c}"] = float(out["G"][i, j])
+        rows.append(r)
+    return rows, out
+
+
+def _pop_observed(evaluator, pop) -> dict:
+    X, CV = pop.get("X", "CV")
+    ok = CV[:, 0] <= 0
+    vals = {k: np.array([float(ind.get(f"index_{k}")) for ind in pop])[ok] for k in evaluator.index_names}
+    return observed(evaluator, X[ok], vals, "ga")
+
+
+def _merge_obs(*obs) -> dict:
+    ext: dict = {}
+    for o in obs:
+        merge_observed(ext, o, "")
+    return {k: {s: {kk: vv for kk, vv in r.items() if kk != "stage"} for s, r in v.items()} for k, v in ext.items()}
+
+
+def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, history: list,
+                  seeds: np.ndarray | None = None, polish: int = 0, display=None) -> dict:
+    """Write a finished stage's history.csv, population.csv (and front CSV),
+    polish its best designs (``polish`` starts; 0: none) and return its result
+    (the caller writes result.json).  ``display(rows, stage)``: the rows as the
+    CSV files show them (units, own sense); the result keeps the internal rows
+    (SI, minimized objectives)."""
     show = display or (lambda rows, st: rows)
     folder.stage_dir(stage.name)
     folder.write_text(f"stages/{stage.name}/history.csv", rows_csv(show(history, stage)))
@@ -57,13 +92,25 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
     folder.write_text(f"stages/{stage.name}/population.csv", rows_csv(show(pop_rows, None)))
     res = {"stage": stage.name, "kind": stage.kind, "generations": len(history),
            "evaluations": int(algorithm.evaluator.n_eval)}
+    seeds = np.zeros((0, problem.n_var)) if seeds is None else np.asarray(seeds, dtype=float)
+    ga_obs = _pop_observed(evaluator, algorithm.pop)
     if stage.kind in ("single", "weighted"):
         best = algorithm.opt[0]
         feasible = bool(best.CV[0] <= 0)
-        design = {k: float(v[0]) for k, v in evaluator.designs(best.X[None, :]).items()}
-        res.update({"feasible": feasible, "objective": float(best.F[0]) if feasible else None,
-                    "design": design,
-                    "indices": {k: float(best.get(f"index_{k}")) for k in evaluator.index_names}})
+        ref = refine_single(problem, algorithm, seeds, polish)
+        rows, out = _rows_of(evaluator, problem, ref["x"][None, :])
+        design = {k: float(v[0]) for k, v in evaluator.designs(ref["x"][None, :]).items()}
+        indices = {k: rows[0][k] for k in evaluator.index_names}
+        res.update({"feasible": feasible, "objective": float(ref["value"]) if feasible else None,
+                    "design": design, "indices": indices, "found_by": ref["found_by"],
+                    "ga": {"objective": float(best.F[0]) if feasible else None,
+                           "design": {k: float(v[0]) for k, v in evaluator.designs(best.X[None, :]).items()},
+                           "indices": {k: float(best.get(f"index_{k}")) for k in evaluator.index_names}}})
+        if ref["record"] is not None:
+            res["polish"] = ref["record"]
+        pol = observed(evaluator, ref["x"][None, :], {k: np.array([v]) for k, v in indices.items()}, "polish") \
+            if ref["found_by"] == "polish" else {}
+        res["observed"] = _merge_obs(ga_obs, pol)
         if stage.kind == "single":
             res["index"] = stage.index
             res["sense"] = stage.sense
@@ -71,9 +118,20 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
     else:
         opt = algorithm.opt
         opt = opt[opt.get("CV")[:, 0] <= 0]
-        rows = population_rows(evaluator, problem, opt)
+        X, F = opt.get("X", "F") if len(opt) else (np.zeros((0, problem.n_var)), np.zeros((0, problem.n_obj)))
+        pol_obs = {}
+        if polish > 0 and len(opt):
+            X, F, rec = refine_front(problem, X, F)
+            res["polish"] = rec
+        if len(X):
+            rows, out = _rows_of(evaluator, problem, X)
+            pol_obs = observed(evaluator, X, {k: out[f"index_{k}"] for k in evaluator.index_names},
+                               "polish" if polish > 0 else "ga")
+        else:
+            rows = []
         folder.write_text(f"{stage.name}.csv", rows_csv(show(rows, None)))
-        res.update({"front_size": len(opt), "front": rows, "terms": [t.label() for t in problem.terms]})
+        res.update({"front_size": len(rows), "front": rows, "terms": [t.label() for t in problem.terms],
+                    "observed": _merge_obs(ga_obs, pol_obs)})
     return res
 
 
@@ -84,7 +142,14 @@ def _num(v, none=False) -> bool:
 def check_stage_result(res: dict, stage, path) -> dict:
     """A finished stage's result.json has what the run reads from it (else RunFolderError)."""
     ok = res.get("kind") == stage.kind and _num(res.get("evaluations"))
-    if ok and stage.kind in ("single", "weighted"):
+    ok = ok and (stage.kind == "prescan" or _observed_ok(res.get("observed")))
+    if ok and stage.kind == "prescan":
+        X, vals, names = res.get("designs"), res.get("values"), res.get("variables")
+        ok = (isinstance(X, list) and isinstance(vals, dict) and isinstance(names, list)
+              and all(isinstance(x, list) and len(x) == len(names) and all(_num(v) and math.isfinite(v) for v in x)
+                      for x in X)
+              and all(isinstance(v, list) and len(v) == len(X) and all(_num(a) for a in v) for v in vals.values()))
+    elif ok and stage.kind in ("single", "weighted"):
         d = res.get("design")
         ok = (isinstance(res.get("feasible"), bool) and _num(res.get("objective"), True)
               and isinstance(d, dict) and all(_num(v) and math.isfinite(v) for v in d.values())
@@ -99,6 +164,21 @@ def check_stage_result(res: dict, stage, path) -> dict:
     return res
 
 
+def _observed_ok(obs) -> bool:
+    """A stage's observed extremes: index -> min/max -> value, design (numbers), found_by."""
+    if not isinstance(obs, dict):
+        return False
+    for rec in obs.values():
+        if not isinstance(rec, dict) or not set(rec) <= {"min", "max"}:
+            return False
+        for r in rec.values():
+            if not (isinstance(r, dict) and _num(r.get("value")) and math.isfinite(r["value"])
+                    and isinstance(r.get("design"), dict) and all(_num(v) for v in r["design"].values())
+                    and isinstance(r.get("found_by"), str)):
+                return False
+    return True
+
+
 def finished_stage(folder: RunFolder, stage, seed: int) -> dict | None:
     """The result of a stage the manifest records as finished with ``seed``
     (its files checked), or None."""
@@ -108,56 +188,6 @@ def finished_stage(folder: RunFolder, stage, seed: int) -> dict | None:
             raise RunFolderError(f"{folder.manifest_path}: stages.{stage.name}: finished with another seed")
         check_stage_result(done, stage, folder.path / "stages" / stage.name / "result.json")
     return done
-
-
-def final_results(cfg, seed: int, stages: dict, lo: dict, hi: dict, ws, evaluator) -> dict:
-    from ..evaluate import evaluate
-
-    ws_res = stages["weighted_sum"]
-    if not ws_res["feasible"]:
-        raise RuntimeError("the weighted-sum GA found no feasible design")
-    opt_design = ws_res["design"]
-    names = [n for n in cfg.designs if n != "initial" or len(cfg.designs) == 1]
-    ev = evaluate(cfg, [opt_design] + [cfg.design(n) for n in names], ws)
-    senses = {k: s.sense for k, s in cfg.indices.items()}
-    weights = {k: cfg.optimizer.weights[k] for k in lo}
-
-    def summ(i):
-        return {k: {s: float(ev.summary[k][s][i]) for s in ("mean", "min", "max", "std")} for k in cfg.indices}
-
-    vals = {k: ev.summary[k]["mean"] for k in cfg.indices}
-    ours = weighted_sum(vals, weighted_sum_term(lo, hi, weights, senses))
-    literal = weighted_sum(vals, weighted_sum_term(lo, hi, weights, senses, literal=True))
-    designs = {}
-    for j, n in enumerate(names):
-        designs[n] = {"parameters": cfg.design(n), "global_indices": summ(j + 1),
-                      "reachable_fraction": float(ev.reachable_fraction[j + 1]),
-                      "objective": float(ours[j + 1]), "objective_paper_literal": float(literal[j + 1])}
-    results = {
-        "status": "complete", "seed": seed, "config": cfg.name, "mechanism": cfg.mechanism,
-        "optimum": {k: float(v) for k, v in opt_design.items()},
-        "objective": float(ws_res["objective"]),
-        "objective_paper_literal": float(literal[0]),
-        "global_indices": {k: float(vals[k][0]) for k in cfg.indices},
-        "global_index_summary": summ(0),
-        "reachable_fraction": float(ev.reachable_fraction[0]),
-        "normalization": {k: {"min": lo[k], "max": hi[k], "sense": senses[k], "weight": weights[k]} for k in lo},
-        "designs": designs,
-        "reference": cfg.reference,
-        "workspace_points": int(ws.n),
-    }
-    if "weighted_sum_literal" in stages and stages["weighted_sum_literal"]["feasible"]:
-        s = stages["weighted_sum_literal"]
-        results["paper_literal_optimum"] = {"design": s["design"], "objective": s["objective"], "global_indices": s["indices"]}
-    candidates = {"weighted_sum_optimum": (results["global_indices"], results["optimum"])}
-    for j, n in enumerate(names):
-        candidates[n] = ({k: float(ev.summary[k]["mean"][j + 1]) for k in cfg.indices}, cfg.design(n))
-    bounds = {p: tuple(dv.bounds or (dv.value,) * 2) for p, dv in cfg.design_variables.items()}
-    pareto = {name: place_against_front(s, candidates, lo, hi, senses, evaluator, bounds)
-              for name, s in stages.items() if s["kind"] == "pareto"}
-    if pareto:
-        results["pareto"] = pareto
-    return results
 
 
 def place_against_front(s: dict, candidates: dict, lo: dict, hi: dict, senses: dict, evaluator, bounds: dict) -> dict:

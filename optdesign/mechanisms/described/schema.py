@@ -92,6 +92,10 @@ def _only(m: Mapping, path: str, allowed, what: str = "key") -> None:
 
 def _require(m: Mapping, key: str, path: str, why: str = "") -> Any:
     if key not in m or m[key] is None:
+        if key not in m:   # a mistyped key that stands for it: name that one
+            for k in m:
+                if isinstance(k, str) and (k.lower() == key or difflib.get_close_matches(k, [key], n=1, cutoff=0.7)):
+                    _fail(f"{path}.{k}", f"unknown key; did you mean {key!r}? ({key!r} is required here)")
         _fail(f"{path}.{key}", "missing required key" + (f" ({why})" if why else ""))
     return m[key]
 
