@@ -70,13 +70,16 @@ def index_table(cfg: Config, results: dict) -> str:
     d = results["designs"]
     names = _named(results)
     base = names[0] if names else None
-    headers = ["index", "unit", "sense"] + [f"{n} (config)" for n in names] + ["optimum"]
+    err = results.get("global_indices_error") or {}
+    headers = ["index", "unit", "sense"] + [f"{n} (config)" for n in names] + ["optimum"] + (["±"] if err else [])
     if base:
         headers.append(f"improvement on {base}")
     rows = []
     for k, spec in cfg.indices.items():
         o = results["global_indices"][k]
         row = [k, _index_unit(cfg, k), spec.sense] + [_f(d[n]["global_indices"][k]["mean"]) for n in names] + [_f(o)]
+        if err:
+            row.append(f"{err[k]:.2g}" if err.get(k) is not None and err[k] == err[k] else "-")
         if base:
             row.append(_factor(spec.sense, d[base]["global_indices"][k]["mean"], o))
         rows.append(row)
@@ -142,6 +145,9 @@ def format_results(cfg: Config, results: dict) -> str:
     lines.append("")
     lines.append("Units: SI ([–]: dimensionless). Improvement: the named design's value divided by the optimum's "
                  "for an index to be minimized, the optimum's divided by the named design's for one to be maximized.")
+    if results.get("global_indices_error"):
+        lines.append(f"±: the error estimate of the optimum's mean against the integral over W "
+                     f"({results.get('error_method', 'see docs/config.md')}).")
     ref = reference_table(cfg, results)
     if ref:
         lines.append("")
@@ -150,6 +156,9 @@ def format_results(cfg: Config, results: dict) -> str:
         lines.append(ref)
         lines.append("")
         lines.append("Reference values: the config's `reference:` section; rel. diff = (ours - reference) / reference.")
+        if results.get("reference_note"):
+            lines.append("")
+            lines.append(results["reference_note"])
     lines.append("")
     lines.append("## Normalization")
     lines.append("")

@@ -109,6 +109,8 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
     page.html("<p class=note>Means of the local indices over the workspace W (min and max over W at the optimum). "
               "Improvement: the named design's value divided by the optimum's for an index to be minimized, the "
               "optimum's divided by the named design's for one to be maximized."
+              + (f" ±: the error estimate of the optimum's mean against the integral over W "
+                 f"({esc(run.results['error_method'])})." if run.results.get("error_method") else "")
               + "</p>")
     ref = reference_table(run)
     if ref:
@@ -116,6 +118,8 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
         page.html(ref)
         page.html("<p class=note>Reference values: the config's <code>reference:</code> section; "
                   "rel. diff = (ours - reference) / reference.</p>")
+        if run.results.get("reference_note"):
+            page.html(f"<p>{esc(run.results['reference_note'])}</p>")
     page.section("normalization", "Normalization")
     page.html(normalization_table(run))
     page.html(_normalization_text(run))

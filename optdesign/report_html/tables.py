@@ -66,7 +66,8 @@ def index_table(run: RunData) -> str:
     cfg, r = run.cfg, run.results
     names = _named(run)
     summ = r.get("global_index_summary", {})
-    headers = ["index", "unit", "sense", "<b>optimum</b>", "min over W", "max over W"]
+    err = r.get("global_indices_error") or {}
+    headers = ["index", "unit", "sense", "<b>optimum</b>"] + (["±"] if err else []) + ["min over W", "max over W"]
     headers += [f"{esc(n)} (config)" for n in names]
     base = names[0] if names else None
     if base:
@@ -76,7 +77,7 @@ def index_table(run: RunData) -> str:
         o = r["global_indices"][k]
         s = summ.get(k, {}) if isinstance(summ.get(k), dict) else {}
         row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(cfg, k)), "max" if spec.sense == "max" else "min",
-               f"<b>{fmt(o)}</b>", fmt(s.get("min")), fmt(s.get("max"))]
+               f"<b>{fmt(o)}</b>"] + ([fmt(err.get(k), 2)] if err else []) + [fmt(s.get("min")), fmt(s.get("max"))]
         row += [fmt(_mean(r["designs"][n], k)) for n in names]
         if base:
             b = _mean(r["designs"][base], k)
@@ -130,8 +131,10 @@ def normalization_table(run: RunData) -> str:
         if not isinstance(v, dict):
             continue
         unit = index_unit(run.cfg, k) if k in run.cfg.indices else None
-        lo_d = run.stages.get(f"single_{k}_min", {}).get("design")
-        hi_d = run.stages.get(f"single_{k}_max", {}).get("design")
+        # where each extreme was found: results.json records it (a later stage may
+        # have moved it); older runs have only the single-objective stages
+        lo_d = v.get("min_design") or run.stages.get(f"single_{k}_min", {}).get("design")
+        hi_d = v.get("max_design") or run.stages.get(f"single_{k}_max", {}).get("design")
         rows.append([f"<code>{esc(k)}</code>", _unit_cell(unit), esc(v.get("sense", "")), fmt(v.get("min")),
                      _design_text(run, lo_d), fmt(v.get("max")), _design_text(run, hi_d), fmt(v.get("weight"), 3)])
     return html_table(["index", "unit", "sense", "min over the bounds", "found at", "max over the bounds", "found at",
