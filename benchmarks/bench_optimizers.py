@@ -46,7 +46,6 @@ import json
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -67,7 +66,7 @@ def make_algorithm(name: str, population: int):
         from optdesign.config import OptimizerSpec
         from optdesign.optimize.pipeline import build_algorithm
 
-        return build_algorithm(SimpleNamespace(optimizer=OptimizerSpec(algorithm=name, population=population)), 1)
+        return build_algorithm(OptimizerSpec(algorithm=name, population=population), 1)
     if name == "de":
         from pymoo.algorithms.soo.nonconvex.de import DE
 
@@ -181,9 +180,10 @@ def build_problem(spec: dict):
         else:
             term = weighted_sum_term(spec["lo"], spec["hi"], cfg.optimizer.weights,
                                      {k: s.sense for k, s in cfg.indices.items()})
+        from optdesign.evaluate import Evaluator
         from optdesign.optimize.problem import DesignProblem
 
-        p = DesignProblem(cfg, [term], workspace_of(cfg))
+        p = DesignProblem(Evaluator.from_config(cfg, workspace_of(cfg)), [term])
     _CACHE[key] = p
     return p
 
