@@ -88,11 +88,12 @@ def plan(requests, dof: int, has_dynamics: bool):
 
 
 _PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
-_ROLE = {"x": 0, "y": 1, "z": 2, "roll": 3, "pitch": 4, "yaw": 5}
+#: pose-column kinds of the kernel in the rates convention: a twist component, or roll's / pitch's Euler column
+_RATE_COLUMN = {"x": 0, "y": 1, "z": 2, "roll": 6, "pitch": 7, "yaw": 5}
 
 
 def pack(mech):
-    """(codes: ptype, conv, roles, cols, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
+    """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
     from . import _kernels as K
     from .poses import twist_columns
 
@@ -106,7 +107,7 @@ def pack(mech):
     def per_design(a, tail):
         return np.broadcast_to(np.asarray(a, dtype=float), shape + tail).reshape((D,) + tail)
 
-    L = np.zeros((D, n, K.NL))
+    L = np.empty((D, n, K.NL))
     L[:, :, K.LA:K.LA + 3] = per_design(C.A, (n, 3))
     L[:, :, K.LP:K.LP + 3] = per_design(C.P, (n, 3))
     L[:, :, K.LU:K.LU + 3] = per_design(C.U, (n, 3))
@@ -125,18 +126,94 @@ def pack(mech):
     L[:, :, K.LM2] = np.where(kind == 2, B["upper_mass"], 0.0)
     L[:, :, K.LE2] = B["upper_centre"]
     L[:, :, K.LI12] = np.where(kind == 2, B["lower_inertia"] + B["upper_inertia"], 0.0)
-    F = np.zeros((D, K.NF))
+    F = np.empty((D, K.NF))
     F[:, K.FCEN:K.FCEN + 3] = per_design(C.centre, (3,))
     F[:, K.FFIX:K.FFIX + 3] = per_design(C.fixed, (3,))
     F[:, K.FMP] = per_design(C.m_platform, ())
     F[:, K.FIP:K.FIP + 9] = per_design(C.I_platform, (3, 3)).reshape(D, 9)
     F[:, K.FCOM:K.FCOM + 3] = per_design(C.com, (3,))
     spec = mech.pose_spec
-    codes = (_PTYPE[spec.type], 1 if spec.jacobian == "angular_velocity" else 0,
-             np.array([_ROLE[r] for r in spec.roles], dtype=np.int64),
-             np.array(twist_columns(spec), dtype=np.int64), np.ascontiguousarray(kind, dtype=np.int64),
-             np.ascontiguousarray(C.branch, dtype=np.int64))
-    return codes, np.ascontiguousarray(L), np.ascontiguousarray(F), D
+    ptype = _PTYPE[spec.type]
+    if spec.jacobian == "angular_velocity" or ptype < 2:
+        ct = np.array(twist_columns(spec), dtype=np.int64)
+    else:
+        ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
+    codes = (ptype, ct, np.ascontiguousarray(kind, dtype=np.int64), np.ascontiguousarray(C.branch, dtype=np.int64))
+    return codes, L, F, D
+
+
+def frame_rows(mech, X, fixed):
+    """The kernel's per-point frame data (g, blocks, NFR BLK) from the numpy
+    path's own frames (optdesign.mechanisms.described.poses), for fixed angles
+    (g, 1, 3) shaped as the numpy path's design axis: R (not for translation
+    poses), the entries of the Euler columns (rotation and spatial poses), the
+    origin from the pose (the centre of a rotation pose is added by the
+    kernel); the points in blocks of BLK (rows of BLK values)."""
+    from . import _kernels as K
+    from .poses import frames
+
+    spec = mech.pose_spec
+    g, N = fixed.shape[0], X.shape[0]
+    nb = -(-N // K.BLK)
+    full, rest = divmod(N, K.BLK)
+    out = np.zeros((g, nb, K.NFR, K.BLK))
+
+    def put(row, v):
+        v = np.broadcast_to(v, (g, N))
+        out[:, :full, row, :] = v[:, :full * K.BLK].reshape(g, full, K.BLK)
+        if rest:
+            out[:, full, row, :rest] = v[:, full * K.BLK:]
+
+    fr = frames(spec, X, np.zeros(3), fixed)
+    if spec.type != "rotation":
+        for k in range(3):
+            put(K.FRO_ + k, fr.origin[..., k])
+    if spec.type != "translation":
+        for k in range(9):
+            put(K.FRR + k, fr.R[..., k // 3, k % 3])
+    if spec.type in ("rotation", "spatial"):
+        cp, sp = np.cos(fr.angles["pitch"]), np.sin(fr.angles["pitch"])
+        cy, sy = np.cos(fr.angles["yaw"]), np.sin(fr.angles["yaw"])
+        for k, v in enumerate((cy * cp, sy * cp, -sp, -sy, cy)):
+            put(K.FRE + k, v)
+    return out.reshape(g, nb, K.NFR * K.BLK)
+
+
+#: frame data per design at most this many values per kernel call (designs in groups beyond)
+_FR_BUDGET = 4_000_000
+
+
+def _run_kernel(K, mech, codes, L, F, X, want):
+    """The kernel's (stats, counts, codes) for every design: one call when the
+    frames are the same for all designs (a rotation pose's fixed angles do not
+    vary), else per group of designs with their own frames."""
+    ptype, ct, kind, branch = codes
+    n = len(kind)
+    nt = (0,) * n
+    N = X.shape[0]
+    flags = (bool(want[K.DYN]), bool(want[K.SMIN] or want[K.SMIN2] or want[K.TWO]), bool(want[K.TWO]),
+             bool(want[K.COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+    args = (nt, ptype, ct, kind, branch)
+    import numba
+
+    workers = numba.get_num_threads()
+    fix = F[:, K.FFIX:K.FFIX + 3]
+    D = F.shape[0]
+    spec = mech.pose_spec
+    if spec.type != "rotation" or len(spec.roles) == 3 or np.all(fix == fix[0]):
+        FR = frame_rows(mech, X, fix[:1, None, :])
+        return KERNELS.guarded(K.summary, *args, L, F, FR, N, want, flags, workers)
+    step = max(1, _FR_BUDGET // (K.NFR * max(1, X.shape[0])))
+    parts = []
+    for lo in range(0, D, step):
+        sl = slice(lo, min(D, lo + step))
+        FR = frame_rows(mech, X, fix[sl, None, :])
+        res = KERNELS.guarded(K.summary, *args, np.ascontiguousarray(L[sl]), np.ascontiguousarray(F[sl]), FR, N,
+                              want, flags, workers)
+        if res is None:
+            return None
+        parts.append(res)
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
 
 
 def _local_numpy(kind, conv, opts, J, M):
@@ -223,8 +300,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     rows = sorted({v for _, v, _ in pl} | ({K.TWO} if want_max_cond else set()))
     want = np.zeros(K.NVAL, dtype=np.bool_)
     want[rows] = True
-    Xc = np.ascontiguousarray(X)
-    res = KERNELS.guarded(K.summary, *codes, L, F, Xc, want)
+    res = _run_kernel(K, mech, codes, L, F, X, want)
     if res is None:
         return None
     stats, counts, cd = res
@@ -260,4 +336,4 @@ def reach_codes(mech, X) -> np.ndarray:
     codes, L, F, D = pack(mech)
     want = np.zeros(K.NVAL, dtype=np.bool_)
     want[K.FRO] = True
-    return K.summary(*codes, L, F, np.ascontiguousarray(X, dtype=float), want)[2]
+    return _run_kernel(K, mech, codes, L, F, np.asarray(X, dtype=float), want)[2]
