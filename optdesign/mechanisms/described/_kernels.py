@@ -47,9 +47,12 @@ order, so results do not depend on the number of threads.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
+from numba import uint64 as _u
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
@@ -79,8 +82,8 @@ NFR = 17
 #: pose-column kinds (ct): 0..5 a twist component; roll's and pitch's Euler columns
 CT_ROLL, CT_PITCH = 6, 7
 #: rows of the per-leg scratch (n, NLG BLK)
-GB, GR, GG, GK, GAL, GGA, GDE = 0, 3, 6, 12, 18, 19, 20
-NLG = 21
+GR, GG, GK, GAL, GGA, GDE = 0, 3, 9, 15, 16, 17
+NLG = 18
 #: rows of the per-point vector scratch ((NVS + 3 n) BLK)
 VOK, VDET, VF2, VI2, VLJ, VLU, VLW, VBETA, VV0, VX, VMASK, VS = range(12)
 NVS = 12
@@ -178,75 +181,6 @@ def _lmax3_point(a00, a11, a22, a01, a02, a12):
     return lam if tr > 0.0 else 0.0
 
 
-@njit(**_NJIT)
-def _lmax_small(A, out, nt, m):
-    """out[j] = lambda_max of the symmetric PSD A[:, :, j] (n <= 3, upper triangle read)."""
-    n = len(nt)
-    if n == 1:
-        for j in range(m):
-            out[j] = A[j]
-    elif n == 2:
-        for j in range(m):
-            a = A[j]
-            c = A[3 * BLK + j]
-            b = A[BLK + j]
-            h = 0.5 * (a - c)
-            out[j] = 0.5 * (a + c) + math.sqrt(h * h + b * b)
-    else:
-        for j in range(m):
-            out[j] = _lmax3_point(A[j], A[4 * BLK + j], A[8 * BLK + j], A[BLK + j], A[2 * BLK + j], A[5 * BLK + j])
-
-
-@njit(**_NJIT)
-def _tridiag(A, T, V, nt, m):
-    """Householder reduction of the symmetric A (n x n, full storage,
-    destroyed) to tridiagonal form: the diagonal into T rows 0..n-1, the
-    off-diagonal into rows n..2n-2.  V: vector scratch."""
-    n = len(nt)
-    for k in range(n - 2):
-        for j in range(m):
-            s = 0.0
-            for i in range(n):
-                x = A[(i * n + k) * BLK + j]
-                s += x * x if i > k + 1 else 0.0
-            x1 = A[((k + 1) * n + k) * BLK + j]
-            nr = x1 * x1 + s
-            r = math.sqrt(nr)
-            al = -r if x1 >= 0.0 else r
-            den = nr - al * x1
-            V[VBETA * BLK + j] = 1.0 / den if den > 0.0 else 0.0
-            T[(n + k) * BLK + j] = al
-            for i in range(n):
-                V[(VS + i) * BLK + j] = (x1 - al if i == k + 1 else A[(i * n + k) * BLK + j]) if i > k else 0.0
-        # p = beta A v, then w = p - (beta / 2) (v.p) v (rows VS + n + r)
-        for r_ in range(k + 1, n):
-            for j in range(m):
-                s = 0.0
-                for c in range(n):
-                    s += A[(r_ * n + c) * BLK + j] * V[(VS + c) * BLK + j] if c > k else 0.0
-                V[(VS + n + r_) * BLK + j] = V[VBETA * BLK + j] * s
-        for j in range(m):
-            s = 0.0
-            for r_ in range(n):
-                s += V[(VS + r_) * BLK + j] * V[(VS + n + r_) * BLK + j] if r_ > k else 0.0
-            h = 0.5 * V[VBETA * BLK + j] * s
-            for r_ in range(n):
-                V[(VS + n + r_) * BLK + j] = (V[(VS + n + r_) * BLK + j] - h * V[(VS + r_) * BLK + j]
-                                              if r_ > k else 0.0)
-        for r_ in range(k + 1, n):
-            for c in range(k + 1, r_ + 1):
-                for j in range(m):
-                    x = A[(r_ * n + c) * BLK + j] - (V[(VS + r_) * BLK + j] * V[(VS + n + c) * BLK + j]
-                                                     + V[(VS + n + r_) * BLK + j] * V[(VS + c) * BLK + j])
-                    A[(r_ * n + c) * BLK + j] = x
-                    A[(c * n + r_) * BLK + j] = x
-    for k in range(n):
-        for j in range(m):
-            T[k * BLK + j] = A[(k * n + k) * BLK + j]
-    for j in range(m):
-        T[(2 * n - 2) * BLK + j] = A[((n - 1) * n + n - 2) * BLK + j]
-
-
 @njit(inline="always", **_NJIT)
 def _count_below(T, j, n, x):
     """The number of eigenvalues of the (scaled) tridiagonal T (diagonal rows
@@ -256,7 +190,7 @@ def _count_below(T, j, n, x):
     p1 = T[j] - x
     cnt = 1 if p1 < 0.0 else 0
     for k in range(1, n):
-        p2 = (T[k * BLK + j] - x) * p1 - T[(n + k - 1) * BLK + j] * p0
+        p2 = (T[_u(k * BLK + j)] - x) * p1 - T[_u((n + k - 1) * BLK + j)] * p0
         cnt += 1 if (p2 < 0.0) != (p1 < 0.0) else 0
         p0 = p1
         p1 = p2
@@ -264,70 +198,13 @@ def _count_below(T, j, n, x):
 
 
 @njit(**_NJIT)
-def _lmax_tri(A, out, T, V, nt, m):
-    """out[j] = lambda_max of the symmetric PSD A (n >= 4; destroyed).
-
-    Tridiagonalize, scale by an upper bound x0 = min(Gershgorin, Frobenius),
-    then NEWTON steps from x = 1 to the larger root of the local quadratic
-    model of f(x) = det(x I - T) (f, f', f'' by the three-term recurrence):
-    exact for a pair of equal eigenvalues, cubic for a simple one.  A point is
-    accepted if the Sturm counts say lambda_max lies within TAU (relative) of
-    x; the others (where V's VMASK row is nonzero) are bisected to full accuracy."""
+def _bisect_flagged(T, out, V, nt, m):
+    """out[j] for the points flagged in V's row VV0 (lambda_max not certified by
+    the Newton steps): bisection of the scaled tridiagonal T to the last bit,
+    then the scale (V's row VBETA)."""
     n = len(nt)
-    _tridiag(A, T, V, nt, m)
     for j in range(m):
-        g = -np.inf
-        fr = 0.0
-        for k in range(n):
-            bl = abs(T[(n + k - 1) * BLK + j]) if k > 0 else 0.0
-            br = abs(T[(n + k) * BLK + j]) if k < n - 1 else 0.0
-            a = T[k * BLK + j]
-            g = max(g, a + bl + br)
-            fr += a * a + 2.0 * br * br
-        x0 = min(g, math.sqrt(fr))
-        s = 1.0 / x0 if x0 > 0.0 else 0.0
-        V[VBETA * BLK + j] = x0 if x0 > 0.0 else 0.0
-        for k in range(n):
-            T[k * BLK + j] = T[k * BLK + j] * s
-        for k in range(n - 1):
-            b = T[(n + k) * BLK + j] * s
-            T[(n + k) * BLK + j] = b * b
-        V[VX * BLK + j] = 1.0
-    for _ in range(NEWTON):
-        for j in range(m):
-            xj = V[VX * BLK + j]
-            f0 = 1.0
-            f1 = xj - T[j]
-            d0 = 0.0
-            d1 = 1.0
-            e0 = 0.0
-            e1 = 0.0
-            for k in range(1, n):
-                t = xj - T[k * BLK + j]
-                c = T[(n + k - 1) * BLK + j]
-                f2 = t * f1 - c * f0
-                d2 = f1 + t * d1 - c * d0
-                e2 = 2.0 * d1 + t * e1 - c * e0
-                f0 = f1
-                f1 = f2
-                d0 = d1
-                d1 = d2
-                e0 = e1
-                e1 = e2
-            # larger root of f + f' h + f'' h^2 / 2: h = -2 f / (f' + sqrt(f'^2 - 2 f f''))
-            disc = d1 * d1 - 2.0 * f1 * e1
-            den = d1 + math.sqrt(disc if disc > 0.0 else 0.0)
-            h = -2.0 * f1 / den if den != 0.0 else 0.0
-            V[VX * BLK + j] = xj + h
-    for j in range(m):
-        xj = V[VX * BLK + j]
-        good = (_count_below(T, j, n, xj * (1.0 + TAU)) == n) & (_count_below(T, j, n, xj * (1.0 - TAU)) < n)
-        sc = V[VBETA * BLK + j]
-        V[VV0 * BLK + j] = 0.0 if good or V[VMASK * BLK + j] == 0.0 or not sc > 0.0 else 1.0
-        out[j] = xj * sc
-    for j in range(m):
-        if V[VV0 * BLK + j] != 0.0:
-            # bisection on [0, 1] (the scaled upper bound), to the last bit
+        if V[_u(VV0 * BLK + j)] != 0.0:
             lo = 0.0
             hi = 1.0
             for _ in range(80):
@@ -338,81 +215,10 @@ def _lmax_tri(A, out, T, V, nt, m):
                     hi = mid
                 else:
                     lo = mid
-            out[j] = 0.5 * (lo + hi) * V[VBETA * BLK + j]
-
-
-@njit(**_NJIT)
-def _lmax(A, out, T, V, nt, m):
-    """out[j] = lambda_max of the symmetric PSD A (destroyed for n >= 4)."""
-    if len(nt) <= 3:
-        _lmax_small(A, out, nt, m)
-    else:
-        _lmax_tri(A, out, T, V, nt, m)
+            out[j] = 0.5 * (lo + hi) * V[_u(VBETA * BLK + j)]
 
 
 # ---------------------------------------------------------------------- dense small matrices
-@njit(**_NJIT)
-def _qr_r(A, V, nt, m):
-    """A (n x n) <- R of its Householder QR (upper triangle; below it the
-    reflectors' tails); V row VDET <- prod |R_kk|."""
-    n = len(nt)
-    for j in range(m):
-        V[VDET * BLK + j] = 1.0
-    for k in range(n):
-        for j in range(m):
-            s = 0.0
-            for i in range(n):
-                x = A[(i * n + k) * BLK + j]
-                s += x * x if i > k else 0.0
-            x0 = A[(k * n + k) * BLK + j]
-            nr = x0 * x0 + s
-            r = math.sqrt(nr)
-            al = -r if x0 >= 0.0 else r
-            den = nr - al * x0
-            V[VBETA * BLK + j] = 1.0 / den if den > 0.0 else 0.0
-            V[VV0 * BLK + j] = x0 - al
-            A[(k * n + k) * BLK + j] = al
-            V[VDET * BLK + j] *= r
-        for c in range(k + 1, n):
-            for j in range(m):
-                v0 = V[VV0 * BLK + j]
-                s = v0 * A[(k * n + c) * BLK + j]
-                for i in range(n):
-                    s += A[(i * n + k) * BLK + j] * A[(i * n + c) * BLK + j] if i > k else 0.0
-                s *= V[VBETA * BLK + j]
-                A[(k * n + c) * BLK + j] -= s * v0
-                for i in range(n):
-                    x = A[(i * n + c) * BLK + j]
-                    A[(i * n + c) * BLK + j] = x - s * A[(i * n + k) * BLK + j] if i > k else x
-
-
-@njit(**_NJIT)
-def _upper_inverse(A, U, V, nt, m):
-    """U = R^-1 for R the upper triangle of A (U's strict lower triangle set
-    to 0); V row VI2 <- ||U||_F^2."""
-    n = len(nt)
-    for k in range(n):
-        for j in range(m):
-            U[(k * n + k) * BLK + j] = 1.0 / A[(k * n + k) * BLK + j]
-        for r in range(k + 1, n):
-            for j in range(m):
-                U[(r * n + k) * BLK + j] = 0.0
-    for c in range(n):
-        for r in range(c - 1, -1, -1):
-            for j in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += A[(r * n + k) * BLK + j] * U[(k * n + c) * BLK + j] if (k > r and k <= c) else 0.0
-                U[(r * n + c) * BLK + j] = -s * U[(r * n + r) * BLK + j]
-    for j in range(m):
-        s = 0.0
-        for r in range(n):
-            for c in range(n):
-                x = U[(r * n + c) * BLK + j]
-                s += x * x if c >= r else 0.0
-        V[VI2 * BLK + j] = s
-
-
 @njit(inline="always", **_NJIT)
 def _minor_dd(a1, a2, b1, b2):
     """a1 b2 - a2 b1 as an unevaluated sum hi + lo (error-free products, TwoSum)."""
@@ -523,79 +329,17 @@ def _inverse_small(A, U, V, nt, m):
                                 + (u20 * u20 + u21 * u21 + u22 * u22))
 
 
-@njit(**_NJIT)
-def _inverse(A, Rq, U, V, nt, m):
-    """U = the inverse (n <= 3) or R^-1 of A = QR (n >= 4: upper triangular,
-    with the same singular values as A^-1, Q never formed); V rows VDET <- |det A|,
-    VI2 <- ||A^-1||_F^2.  Rq: scratch (n >= 4)."""
-    n = len(nt)
-    if n <= 3:
-        _inverse_small(A, U, V, nt, m)
-    else:
-        for i in range(n * n * BLK):
-            Rq[i] = A[i]
-        _qr_r(Rq, V, nt, m)
-        _upper_inverse(Rq, U, V, nt, m)
-
-
-@njit(**_NJIT)
-def _gram_cols(A, G, nt, m):
-    """G = A^T A (full)."""
-    n = len(nt)
-    for a in range(n):
-        for b in range(a, n):
-            for j in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += A[(k * n + a) * BLK + j] * A[(k * n + b) * BLK + j]
-                G[(a * n + b) * BLK + j] = s
-                G[(b * n + a) * BLK + j] = s
-
-
-@njit(**_NJIT)
-def _gram_rows(U, G, nt, m):
-    """G = U U^T (full) for U from _inverse (upper triangular for n >= 4)."""
-    n = len(nt)
-    upper = n >= 4
-    for a in range(n):
-        for b in range(a, n):
-            for j in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += U[(a * n + k) * BLK + j] * U[(b * n + k) * BLK + j] if (k >= b or not upper) else 0.0
-                G[(a * n + b) * BLK + j] = s
-                G[(b * n + a) * BLK + j] = s
-
-
 # ---------------------------------------------------------------------- legs
-@njit(**_NJIT)
-def _leg_points(ptype, L, F, d, i, FRb, m, Li):
-    """Platform point b = o + R P and r = R P of leg i (Li: its scratch)."""
-    P0 = L[d, i, LP]
-    P1 = L[d, i, LP + 1]
-    P2 = L[d, i, LP + 2]
-    c0 = F[d, FCEN] if ptype == 2 else 0.0
-    c1 = F[d, FCEN + 1] if ptype == 2 else 0.0
-    c2 = F[d, FCEN + 2] if ptype == 2 else 0.0
-    if ptype == 0:
-        for j in range(m):
-            Li[GR * BLK + j] = P0
-            Li[(GR + 1) * BLK + j] = P1
-            Li[(GR + 2) * BLK + j] = P2
-            Li[GB * BLK + j] = FRb[FRO_ * BLK + j] + P0
-            Li[(GB + 1) * BLK + j] = FRb[(FRO_ + 1) * BLK + j] + P1
-            Li[(GB + 2) * BLK + j] = FRb[(FRO_ + 2) * BLK + j] + P2
-        return
-    for j in range(m):
-        r0 = FRb[FRR * BLK + j] * P0 + FRb[(FRR + 1) * BLK + j] * P1 + FRb[(FRR + 2) * BLK + j] * P2
-        r1 = FRb[(FRR + 3) * BLK + j] * P0 + FRb[(FRR + 4) * BLK + j] * P1 + FRb[(FRR + 5) * BLK + j] * P2
-        r2 = FRb[(FRR + 6) * BLK + j] * P0 + FRb[(FRR + 7) * BLK + j] * P1 + FRb[(FRR + 8) * BLK + j] * P2
-        Li[GR * BLK + j] = r0
-        Li[(GR + 1) * BLK + j] = r1
-        Li[(GR + 2) * BLK + j] = r2
-        Li[GB * BLK + j] = (FRb[FRO_ * BLK + j] + c0) + r0
-        Li[(GB + 1) * BLK + j] = (FRb[(FRO_ + 1) * BLK + j] + c1) + r1
-        Li[(GB + 2) * BLK + j] = (FRb[(FRO_ + 2) * BLK + j] + c2) + r2
+@njit(inline="always", **_NJIT)
+def _platform_point(FRb, j, P0, P1, P2, c0, c1, c2):
+    """r = R P and b = (o + centre) + r at point j of the frame block."""
+    r0 = FRb[_u(FRR * BLK + j)] * P0 + FRb[_u((FRR + 1) * BLK + j)] * P1 + FRb[_u((FRR + 2) * BLK + j)] * P2
+    r1 = FRb[_u((FRR + 3) * BLK + j)] * P0 + FRb[_u((FRR + 4) * BLK + j)] * P1 + FRb[_u((FRR + 5) * BLK + j)] * P2
+    r2 = FRb[_u((FRR + 6) * BLK + j)] * P0 + FRb[_u((FRR + 7) * BLK + j)] * P1 + FRb[_u((FRR + 8) * BLK + j)] * P2
+    b0 = (FRb[_u(FRO_ * BLK + j)] + c0) + r0
+    b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + c1) + r1
+    b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + c2) + r2
+    return r0, r1, r2, b0, b1, b2
 
 
 @njit(inline="always", **_NJIT)
@@ -637,7 +381,7 @@ def _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, l2, ma):
 
 
 @njit(**_NJIT)
-def _leg_prismatic(L, d, i, br, m, Li, V, dyn):
+def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
     """Slider at a = A + q u, rod of length l: q = u.w -+ sqrt((u.w)^2 - |w|^2 + l^2)."""
     A0 = L[d, i, LA]
     A1 = L[d, i, LA + 1]
@@ -650,10 +394,17 @@ def _leg_prismatic(L, d, i, br, m, Li, V, dyn):
     ir = L[d, i, LIROD]
     f = L[d, i, LFROD]
     ma = L[d, i, LMACT]
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        b0 = Li[GB * BLK + j]
-        b1 = Li[(GB + 1) * BLK + j]
-        b2 = Li[(GB + 2) * BLK + j]
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
         w0 = b0 - A0
         w1 = b1 - A1
         w2 = b2 - A2
@@ -678,9 +429,6 @@ def _leg_prismatic(L, d, i, br, m, Li, V, dyn):
         d0 = b0 - (A0 + q * u0)
         d1 = b1 - (A1 + q * u1)
         d2 = b2 - (A2 + q * u2)
-        r0 = Li[GR * BLK + j]
-        r1 = Li[(GR + 1) * BLK + j]
-        r2 = Li[(GR + 2) * BLK + j]
         _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den)
         if dyn:
             _rod_coefficients(Li, j, r0, r1, r2, u0, u1, u2, mr, ir, f, Lr * Lr, ma)
@@ -692,7 +440,7 @@ def _wrap(q):
 
 
 @njit(**_NJIT)
-def _leg_revolute(L, d, i, br, m, Li, V, dyn):
+def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
     """Crank of length L_a about k through A (tip A + L_a (cos q r0 + sin q s0)),
     rod of length l: q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)."""
     A0 = L[d, i, LA]
@@ -710,10 +458,17 @@ def _leg_revolute(L, d, i, br, m, Li, V, dyn):
     ir = L[d, i, LIROD]
     f = L[d, i, LFROD]
     ma = L[d, i, LMACT]
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        b0 = Li[GB * BLK + j]
-        b1 = Li[(GB + 1) * BLK + j]
-        b2 = Li[(GB + 2) * BLK + j]
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
         w0 = b0 - A0
         w1 = b1 - A1
         w2 = b2 - A2
@@ -750,9 +505,6 @@ def _leg_revolute(L, d, i, br, m, Li, V, dyn):
         d0 = b0 - (A0 + La * c0)
         d1 = b1 - (A1 + La * c1)
         d2 = b2 - (A2 + La * c2)
-        r0 = Li[GR * BLK + j]
-        r1 = Li[(GR + 1) * BLK + j]
-        r2 = Li[(GR + 2) * BLK + j]
         _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den)
         if dyn:
             t0 = La * (-sq * R00 + cq * S00)
@@ -762,7 +514,7 @@ def _leg_revolute(L, d, i, br, m, Li, V, dyn):
 
 
 @njit(**_NJIT)
-def _leg_strut(L, d, i, m, Li, dyn):
+def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn):
     """Strut of actuated length q = |w|.  Bodies: the lower part (mass m1,
     centre e1 from A) and the upper part (m2, centre e2 from b), inertia I12
     between them, all turning with n x bdot / q; with p = (bdot - n (n.bdot)) / q
@@ -781,15 +533,31 @@ def _leg_strut(L, d, i, m, Li, dyn):
     e2 = L[d, i, LE2]
     i12 = L[d, i, LI12]
     c_ = m1 * e1 * e1 + i12 + m2 * e2 * e2
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        w0 = Li[GB * BLK + j] - A0
-        w1 = Li[(GB + 1) * BLK + j] - A1
-        w2 = Li[(GB + 2) * BLK + j] - A2
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
+        w0 = b0 - A0
+        w1 = b1 - A1
+        w2 = b2 - A2
         q = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-        _twist_row(Li, j, Li[GR * BLK + j], Li[(GR + 1) * BLK + j], Li[(GR + 2) * BLK + j], w0, w1, w2, q)
+        iq = 1.0 / q
+        Li[GG * BLK + j] = w0 * iq
+        Li[(GG + 1) * BLK + j] = w1 * iq
+        Li[(GG + 2) * BLK + j] = w2 * iq
+        Li[(GG + 3) * BLK + j] = (r1 * w2 - r2 * w1) * iq
+        Li[(GG + 4) * BLK + j] = (r2 * w0 - r0 * w2) * iq
+        Li[(GG + 5) * BLK + j] = (r0 * w1 - r1 * w0) * iq
         if dyn:
             c = c_ - 2.0 * m2 * e2 * q
-            iq = c / (q * q)
+            iq = c * (iq * iq)
             Li[GAL * BLK + j] = m2 + iq
             Li[GGA * BLK + j] = -iq
             Li[GDE * BLK + j] = 0.0
@@ -811,13 +579,13 @@ def _pose_rows(Lg, src, ct, FRb, m, J, nt):
                     J[o + j] = Li[(src + k) * BLK + j]
             elif k == CT_ROLL:
                 for j in range(m):
-                    J[o + j] = ((Li[(src + 3) * BLK + j] * FRb[FRE * BLK + j]
-                                 + Li[(src + 4) * BLK + j] * FRb[(FRE + 1) * BLK + j])
-                                + Li[(src + 5) * BLK + j] * FRb[(FRE + 2) * BLK + j])
+                    J[o + j] = ((Li[(src + 3) * BLK + j] * FRb[_u(FRE * BLK + j)]
+                                 + Li[(src + 4) * BLK + j] * FRb[_u((FRE + 1) * BLK + j)])
+                                + Li[(src + 5) * BLK + j] * FRb[_u((FRE + 2) * BLK + j)])
             else:
                 for j in range(m):
-                    J[o + j] = (Li[(src + 3) * BLK + j] * FRb[(FRE + 3) * BLK + j]
-                                + Li[(src + 4) * BLK + j] * FRb[(FRE + 4) * BLK + j])
+                    J[o + j] = (Li[(src + 3) * BLK + j] * FRb[_u((FRE + 3) * BLK + j)]
+                                + Li[(src + 4) * BLK + j] * FRb[_u((FRE + 4) * BLK + j)])
 
 
 # ---------------------------------------------------------------------- mass matrix
@@ -968,114 +736,343 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
         B[j] = a
 
 
-@njit(inline="always", **_NJIT)
-def _scol(B, k, kb, j, FRb):
-    """(B s)_k for the pose column s of kind kb (twist component, roll or pitch column)."""
-    if kb < 6:
-        return B[(k * 6 + kb) * BLK + j]
-    if kb == CT_ROLL:
-        return ((B[(k * 6 + 3) * BLK + j] * FRb[FRE * BLK + j] + B[(k * 6 + 4) * BLK + j] * FRb[(FRE + 1) * BLK + j])
-                + B[(k * 6 + 5) * BLK + j] * FRb[(FRE + 2) * BLK + j])
-    return B[(k * 6 + 3) * BLK + j] * FRb[(FRE + 3) * BLK + j] + B[(k * 6 + 4) * BLK + j] * FRb[(FRE + 4) * BLK + j]
+# ---------------------------------------------------------------------- generated fixed-size code
+# The routines whose loops over matrix indices would otherwise run with
+# run-time bounds (masked) are generated as straight-line code for the size n
+# (the length of the tuple nt) when numba first types a call: one loop over
+# the block's points, every matrix entry a local variable.  Each is an
+# @overload of a stub; the code is compiled into (and cached with) the kernel
+# that calls it, and this file's source is the generator, so editing it
+# invalidates the cache as for any other kernel code.
+_GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
+_GEN_NAMES = {"math": math, "np": np, "_u": _u, "BLK": BLK, "NEWTON": NEWTON, "TAU": TAU,
+              "VDET": VDET, "VI2": VI2, "VBETA": VBETA, "VV0": VV0, "VMASK": VMASK}
 
 
-@njit(**_NJIT)
-def _mass(B, Lg, J, Kp, ct, FRb, m, M, G, nt, rods):
-    """M_p = S^T B S + sum_i [gamma_i J_i^T J_i + delta_i (J_i^T K_i + K_i^T J_i)]
-    (full).  G: scratch rows for the legs' gamma, delta (2 n)."""
-    n = len(nt)
-    for i in range(n):
-        Li = Lg[i]
-        for j in range(m):
-            G[i * BLK + j] = Li[GGA * BLK + j]
-            G[(n + i) * BLK + j] = Li[GDE * BLK + j]
+def _interleave(lines):
+    """The point loop's body (lines after the loop header, for the point j)
+    for two points at once, j and j2 (the second half of the block): the two
+    copies are independent, so the processor overlaps their dependency chains
+    (sqrt, division, the recurrences), which one copy leaves waiting."""
+    i = next(k for k, l in enumerate(lines) if l.startswith("    for j in range(m):"))
+    head, rest = lines[:i], lines[i + 1:]
+    k = next((k for k, l in enumerate(rest) if not l.startswith("        ")), len(rest))
+    body, tail = rest[:k], rest[k:]
+    names = {"j"}
+    for l in body:
+        mt = re.match(r"\s*(\w+)\s*(=|\+=|-=|\*=)", l)
+        if mt:
+            names.add(mt.group(1))
+    pat = re.compile(r"\b(" + "|".join(sorted(names, key=len, reverse=True)) + r")\b")
+    second = [pat.sub(lambda mo: mo.group(1) + "_b" if mo.group(1) != "j" else "j2", l) for l in body]
+    # the distance between the two points is a constant (half the block), so
+    # that LLVM sees the copies do not overlap; the whole block is computed
+    # (columns from m on are scratch, never read)
+    loop = [f"    for j in range({BLK // 2}):", f"        j2 = j + {BLK // 2}"]
+    return head + loop + [x for pair in zip(body, second) for x in pair] + tail
+
+
+def _compile(lines, extra=None):
+    """The function ``impl`` defined by the source lines (generated code)."""
+    ns = dict(_GEN_NAMES)
+    ns.update(extra or {})
+    exec(compile("\n".join(lines) + "\n", "<optdesign described kernel (generated)>", "exec"), ns)
+    return ns["impl"]
+
+
+def _rows(name, n, lower_only=False):
+    """Load statements of the n x n matrix in the rows of the array ``name`` into x_r_c."""
+    return [f"        {name.lower()}{r}_{c} = {name}[_u({(r * n + c)} * BLK + j)]"
+            for r in range(n) for c in range(n) if not (lower_only and c > r)]
+
+
+def _gen_qr_inverse(n):
+    """R of the Householder QR of A, then U = R^-1 (upper triangle stored), |det A| = prod |R_kk|
+    and ||U||_F^2 into V's rows VDET, VI2 (n >= 4)."""
+    L = ["def impl(A, U, V, nt, m):", "    for j in range(m):"]
+    L += _rows("A", n)
+    L.append("        dt = 1.0")
+    for k in range(n):
+        tail = " + ".join(f"a{i}_{k} * a{i}_{k}" for i in range(k + 1, n)) or "0.0"
+        L += [f"        s = {tail}", f"        x0 = a{k}_{k}", "        nr = x0 * x0 + s", "        r = math.sqrt(nr)",
+              "        al = -r if x0 >= 0.0 else r", "        den = nr - al * x0",
+              "        beta = 1.0 / den if den > 0.0 else 0.0", "        v0 = x0 - al", f"        a{k}_{k} = al",
+              "        dt *= r"]
+        for c in range(k + 1, n):
+            dot = "".join(f" + a{i}_{k} * a{i}_{c}" for i in range(k + 1, n))
+            L.append(f"        s = (v0 * a{k}_{c}{dot}) * beta")
+            L.append(f"        a{k}_{c} -= s * v0")
+            L += [f"        a{i}_{c} -= s * a{i}_{k}" for i in range(k + 1, n)]
+    # U = R^-1, column by column from the diagonal up
+    for k in range(n):
+        L.append(f"        u{k}_{k} = 1.0 / a{k}_{k}")
+    for c in range(n):
+        for r in range(c - 1, -1, -1):
+            terms = " + ".join(f"a{r}_{k} * u{k}_{c}" for k in range(r + 1, c + 1))
+            L.append(f"        u{r}_{c} = -({terms}) * u{r}_{r}")
+    sq = " + ".join(f"u{r}_{c} * u{r}_{c}" for r in range(n) for c in range(r, n))
+    L += [f"        V[_u(VDET * BLK + j)] = dt", f"        V[_u(VI2 * BLK + j)] = {sq}"]
+    L += [f"        U[_u({r * n + c} * BLK + j)] = u{r}_{c}" for r in range(n) for c in range(r, n)]
+    return _compile(L)
+
+
+def _gen_gram(n, mode):
+    """Statements g_a_b (a <= b) of the Gram matrix of x: X^T X (cols), X X^T (rows)
+    or U U^T for the upper triangular U (urows)."""
+    L = []
     for a in range(n):
-        ka = ct[a]
         for b in range(a, n):
-            kb = ct[b]
-            o = (a * n + b) * BLK
-            if ka < 6:
-                for j in range(m):
-                    M[o + j] = _scol(B, ka, kb, j, FRb)
-            elif ka == CT_ROLL:
-                for j in range(m):
-                    M[o + j] = ((FRb[FRE * BLK + j] * _scol(B, 3, kb, j, FRb)
-                                 + FRb[(FRE + 1) * BLK + j] * _scol(B, 4, kb, j, FRb))
-                                + FRb[(FRE + 2) * BLK + j] * _scol(B, 5, kb, j, FRb))
+            if mode == "cols":
+                t = " + ".join(f"x{k}_{a} * x{k}_{b}" for k in range(n))
+            elif mode == "rows":
+                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(n))
             else:
-                for j in range(m):
-                    M[o + j] = (FRb[(FRE + 3) * BLK + j] * _scol(B, 3, kb, j, FRb)
-                                + FRb[(FRE + 4) * BLK + j] * _scol(B, 4, kb, j, FRb))
-            if rods:
-                for j in range(m):
-                    s = M[o + j]
-                    for i in range(n):
-                        ja = J[(i * n + a) * BLK + j]
-                        jb = J[(i * n + b) * BLK + j]
-                        s += (G[i * BLK + j] * (ja * jb)
-                              + G[(n + i) * BLK + j] * (ja * Kp[(i * n + b) * BLK + j] + Kp[(i * n + a) * BLK + j] * jb))
-                    M[o + j] = s
-                    M[(b * n + a) * BLK + j] = s
-            else:
-                for j in range(m):
-                    s = M[o + j]
-                    for i in range(n):
-                        s += G[i * BLK + j] * (J[(i * n + a) * BLK + j] * J[(i * n + b) * BLK + j])
-                    M[o + j] = s
-                    M[(b * n + a) * BLK + j] = s
+                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(b, n))
+            L.append(f"        g{a}_{b} = {t}")
+    return L
 
 
-@njit(**_NJIT)
-def _t_times(U, M, W, nt, m):
-    """W = U^T M for U from _inverse (upper triangular for n >= 4)."""
-    n = len(nt)
+def _sym(a, b):
+    return f"g{min(a, b)}_{max(a, b)}"
+
+
+def _gen_tridiag_lmax(n):
+    """Straight-line statements: Householder tridiagonalization of the symmetric
+    g (upper triangle), the scaled tridiagonal t0..t(n-1), c0..c(n-2)
+    (squared off-diagonal), NEWTON quadratic-model steps, the Sturm check."""
+    L = []
+    for k in range(n - 2):
+        rest = " + ".join(f"{_sym(i, k)} * {_sym(i, k)}" for i in range(k + 2, n)) or "0.0"
+        L += [f"        s = {rest}", f"        x1 = {_sym(k + 1, k)}", "        nr = x1 * x1 + s",
+              "        r = math.sqrt(nr)", "        al = -r if x1 >= 0.0 else r", "        den = nr - al * x1",
+              "        beta = 1.0 / den if den > 0.0 else 0.0", f"        e{k} = al", f"        v{k + 1} = x1 - al"]
+        L += [f"        v{i} = {_sym(i, k)}" for i in range(k + 2, n)]
+        for r in range(k + 1, n):
+            t = " + ".join(f"{_sym(r, c)} * v{c}" for c in range(k + 1, n))
+            L.append(f"        p{r} = beta * ({t})")
+        t = " + ".join(f"v{r} * p{r}" for r in range(k + 1, n))
+        L.append(f"        h = 0.5 * beta * ({t})")
+        L += [f"        w{r} = p{r} - h * v{r}" for r in range(k + 1, n)]
+        for r in range(k + 1, n):
+            for c in range(k + 1, r + 1):
+                L.append(f"        {_sym(r, c)} = {_sym(r, c)} - (v{r} * w{c} + w{r} * v{c})")
+    L += [f"        t{k} = {_sym(k, k)}" for k in range(n)]
+    L.append(f"        e{n - 2} = {_sym(n - 1, n - 2)}")
+    # upper bound: min(Gershgorin, Frobenius); scale to it
+    gs = []
+    for k in range(n):
+        t = f"t{k}" + (f" + abs(e{k - 1})" if k > 0 else "") + (f" + abs(e{k})" if k < n - 1 else "")
+        gs.append(t)
+    L.append("        gb = " + gs[0])
+    L += [f"        gb = max(gb, {t})" for t in gs[1:]]
+    L.append("        fr = " + " + ".join([f"t{k} * t{k}" for k in range(n)] + [f"2.0 * (e{k} * e{k})" for k in range(n - 1)]))
+    L += ["        x0 = min(gb, math.sqrt(fr))", "        sc = x0 if x0 > 0.0 else 0.0", "        s = 1.0 / x0 if x0 > 0.0 else 0.0"]
+    L += [f"        t{k} = t{k} * s" for k in range(n)]
+    L += [f"        c{k} = (e{k} * s) * (e{k} * s)" for k in range(n - 1)]
+    L.append("        x = 1.0")
+    for _ in range(NEWTON):
+        L += ["        f0 = 1.0", "        f1 = x - t0", "        d0 = 0.0", "        d1 = 1.0", "        h0 = 0.0",
+              "        h1 = 0.0"]
+        for k in range(1, n):
+            L += [f"        z = x - t{k}", f"        f2 = z * f1 - c{k - 1} * f0",
+                  f"        d2 = f1 + z * d1 - c{k - 1} * d0", f"        h2 = 2.0 * d1 + z * h1 - c{k - 1} * h0",
+                  "        f0 = f1", "        f1 = f2", "        d0 = d1", "        d1 = d2", "        h0 = h1",
+                  "        h1 = h2"]
+        # larger root of f + f' h + f'' h^2 / 2: h = -2 f / (f' + sqrt(f'^2 - 2 f f''))
+        L += ["        disc = d1 * d1 - 2.0 * f1 * h1", "        den = d1 + math.sqrt(disc if disc > 0.0 else 0.0)",
+              "        x = x + (-2.0 * f1 / den if den != 0.0 else 0.0)"]
+    for tag, y in (("hi", "x * (1.0 + TAU)"), ("lo", "x * (1.0 - TAU)")):
+        L += [f"        y = {y}", "        q0 = 1.0", "        q1 = t0 - y", f"        n{tag} = 1 if q1 < 0.0 else 0"]
+        for k in range(1, n):
+            L += [f"        q2 = (t{k} - y) * q1 - c{k - 1} * q0",
+                  f"        n{tag} += 1 if (q2 < 0.0) != (q1 < 0.0) else 0", "        q0 = q1", "        q1 = q2"]
+    L.append(f"        good = (nhi == {n}) & (nlo < {n})")
+    return L
+
+
+def _gen_lmax(n, mode):
+    """lambda_max of the Gram matrix (mode: cols, rows, urows) of X's n x n matrix
+    into out; for n >= 4 the scaled tridiagonal into T and the points to bisect
+    (not certified, V's VMASK nonzero) flagged in V's row VV0, then bisected."""
+    L = ["def impl(X, out, T, V, nt, m):", "    for j in range(m):"]
+    L += _rows("X", n) if mode != "urows" else [f"        x{r}_{c} = X[_u({r * n + c} * BLK + j)]"
+                                                  for r in range(n) for c in range(r, n)]
+    L += _gen_gram(n, mode)
+    if n == 1:
+        L.append("        out[j] = g0_0")
+    elif n == 2:
+        L += ["        hh = 0.5 * (g0_0 - g1_1)", "        out[j] = 0.5 * (g0_0 + g1_1) + math.sqrt(hh * hh + g0_1 * g0_1)"]
+    elif n == 3:
+        L.append("        out[j] = _lmax3_point(g0_0, g1_1, g2_2, g0_1, g0_2, g1_2)")
+    else:
+        L += _gen_tridiag_lmax(n)
+        L += ["        out[j] = x * sc", "        V[_u(VBETA * BLK + j)] = sc",
+              "        V[_u(VV0 * BLK + j)] = 0.0 if good or V[_u(VMASK * BLK + j)] == 0.0 or not sc > 0.0 else 1.0"]
+        L += [f"        T[_u({k} * BLK + j)] = t{k}" for k in range(n)]
+        L += [f"        T[_u({n + k} * BLK + j)] = c{k}" for k in range(n - 1)]
+        L = _interleave(L)
+        L.append("    _bisect_flagged(T, out, V, nt, m)")
+    return _compile(L, {"_lmax3_point": _lmax3_point, "_bisect_flagged": _bisect_flagged})
+
+
+def _inverse(A, U, V, nt, m):
+    """U = A^-1 (n <= 3) or R^-1 of A = QR (n >= 4: upper triangular, with the
+    singular values of A^-1; Q is never formed); V rows VDET <- |det A|,
+    VI2 <- ||A^-1||_F^2."""
+
+
+@overload(_inverse, jit_options=_GEN_OPTIONS)
+def _ov_inverse(A, U, V, nt, m):
+    if nt.count <= 3:
+        def impl(A, U, V, nt, m):
+            _inverse_small(A, U, V, nt, m)
+        return impl
+    return _gen_qr_inverse(nt.count)
+
+
+def _lmax_cols(X, out, T, V, nt, m):
+    """out[j] = lambda_max(X^T X) (X n x n)."""
+
+
+def _lmax_rows(X, out, T, V, nt, m):
+    """out[j] = lambda_max(X X^T) for X from _inverse (upper triangular for n >= 4)."""
+
+
+@overload(_lmax_cols, jit_options=_GEN_OPTIONS)
+def _ov_lmax_cols(X, out, T, V, nt, m):
+    return _gen_lmax(nt.count, "cols")
+
+
+@overload(_lmax_rows, jit_options=_GEN_OPTIONS)
+def _ov_lmax_rows(X, out, T, V, nt, m):
+    return _gen_lmax(nt.count, "urows" if nt.count >= 4 else "rows")
+
+
+def _spec_of(cspec):
+    """(pose-column kinds, rods) from the type of cspec: an array whose record
+    dtype's field names say them (k<i>_<kind> per pose column, rods_<0|1>), so
+    that they are compile-time constants (see column_spec)."""
+    names = list(cspec.dtype.fields.keys())
+    kinds = [int(nm.split("_")[1]) for nm in names if nm.startswith("k")]
+    rods = any(nm == "rods_1" for nm in names)
+    return kinds, rods
+
+
+def column_spec(ct, rods):
+    """The array (1,) whose record dtype encodes the pose-column kinds ct and
+    whether any leg has a rod (for _spec_of)."""
+    fields = [(f"k{i}_{int(k)}", "u1") for i, k in enumerate(ct)] + [(f"rods_{int(bool(rods))}", "u1")]
+    return np.zeros(1, dtype=np.dtype(fields))
+
+
+def _column_vector(kind):
+    """The pose column s (twist component -> coefficient expression, None for 1)."""
+    if kind < 6:
+        return {kind: None}
+    if kind == CT_ROLL:
+        return {3: "e0", 4: "e1", 5: "e2"}
+    return {3: "e3", 4: "e4"}
+
+
+def _times(coef, expr):
+    return expr if coef is None else f"{coef} * {expr}"
+
+
+def _gen_dyn(n, kinds, rods):
+    """W = U^T M_p without M_p stored: M_p = S^T B S + sum_i [gamma_i J_i^T J_i +
+    delta_i (J_i^T K_i + K_i^T J_i)] written as s_a.(B s_b) + sum_i (J_ia P_ib +
+    K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib; the
+    pose columns s of the given kinds (a selection or the Euler columns) are
+    expanded in the code, so only the entries of B they meet are read."""
     upper = n >= 4
+    L = ["def impl(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):", "    for j in range(m):"]
+    if any(k >= 6 for k in kinds):
+        L += [f"        e{k} = FRb[_u({FRE + k} * BLK + j)]" for k in range(5)]
+    svec = [_column_vector(k) for k in kinds]
+    need = set()
+    for b in range(n):
+        for l in svec[b]:
+            for a in range(n):
+                for k in svec[a]:
+                    need.add((min(k, l), max(k, l)))
+    L += [f"        b{k}_{l} = B[_u({k * 6 + l} * BLK + j)]" for k, l in sorted(need)]
+    # T_b[k] = (B s_b)_k for the components k the columns meet
+    comps = sorted({k for sv in svec for k in sv})
+    for b in range(n):
+        for k in comps:
+            t = " + ".join(_times(cf, f"b{min(k, l)}_{max(k, l)}") for l, cf in svec[b].items())
+            L.append(f"        tb{b}_{k} = {t}")
+    L += _rows("J", n)
+    if rods:
+        L += [f"        kp{r}_{c} = Kp[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n)]
+    for i in range(n):
+        L.append(f"        ga{i} = Lg[{i}, {GGA} * BLK + j]")
+        if rods:
+            L.append(f"        de{i} = Lg[{i}, {GDE} * BLK + j]")
+        for b in range(n):
+            if rods:
+                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b} + de{i} * kp{i}_{b}")
+                L.append(f"        q{i}_{b} = de{i} * j{i}_{b}")
+            else:
+                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b}")
+    for a in range(n):
+        for b in range(a, n):
+            sbs = " + ".join(_times(cf, f"tb{b}_{k}") for k, cf in svec[a].items())
+            legs = " + ".join(f"j{i}_{a} * p{i}_{b}" + (f" + kp{i}_{a} * q{i}_{b}" if rods else "") for i in range(n))
+            L.append(f"        m{a}_{b} = ({sbs}) + ({legs})")
+    L += [f"        u{r}_{c} = U[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n) if not (upper and c < r)]
     for i in range(n):
         for b in range(n):
-            for j in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += U[(k * n + i) * BLK + j] * M[(k * n + b) * BLK + j] if (k <= i or not upper) else 0.0
-                W[(i * n + b) * BLK + j] = s
+            t = " + ".join(f"u{k}_{i} * m{min(k, b)}_{max(k, b)}" for k in range(n) if not (upper and k > i))
+            L.append(f"        W[_u({i * n + b} * BLK + j)] = {t}")
+    return _compile(L)
+
+
+def _dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    """W = U^T M_p (U from _inverse), see _gen_dyn; cspec: the pose-column kinds
+    and rods as a type (column_spec)."""
+
+
+@overload(_dyn_w, jit_options=_GEN_OPTIONS)
+def _ov_dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    kinds, rods = _spec_of(cspec)
+    return _gen_dyn(nt.count, kinds, rods)
 
 
 # ---------------------------------------------------------------------- one block of points
 @njit(**_NJIT)
 def _alloc(nt):
-    """The scratch of one worker (flat rows of BLK): legs (n, NLG BLK), seven
-    n x n matrices, the twist-space B (36 rows), the tridiagonal (2 n rows),
-    vectors (NVS + 3 n rows)."""
+    """The scratch of one worker (flat rows of BLK, zeros: code that computes a
+    whole block reads finite numbers beyond m): legs (n, NLG BLK), four n x n
+    matrices (J, J^-1 or R^-1, K, W), the twist-space B (36 rows), the
+    tridiagonal (2 n rows), vectors (NVS + 3 n rows)."""
     n = len(nt)
-    return (np.empty((n, NLG * BLK)), np.empty((7, n * n * BLK)), np.empty(36 * BLK), np.empty(2 * n * BLK),
-            np.empty((NVS + 3 * n) * BLK))
+    return (np.zeros((n, NLG * BLK)), np.zeros((4, n * n * BLK)), np.zeros(36 * BLK), np.zeros(2 * n * BLK),
+            np.zeros((NVS + 3 * n) * BLK))
 
 
 @njit(**_NJIT)
-def _block(nt, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, cb):
+def _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, cb):
     """Values and reach codes of design d at the m points of the frame block
     FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
     n = len(nt)
     dyn, sv_inv, sv_j, cols, rods, rot = flags
     Lg, mats, B, T, V = scratch
     J = mats[0]
-    Rq = mats[1]
-    U = mats[2]
-    Gm = mats[3]
-    Kp = mats[4]
-    M = mats[5]
-    Wm = mats[6]
+    U = mats[1]
+    Kp = mats[2]
+    Wm = mats[3]
     for j in range(m):
         V[VOK * BLK + j] = 1.0
     for i in range(n):
         Li = Lg[i]
-        _leg_points(ptype, L, F, d, i, FRb, m, Li)
         k = kind[i]
         if k == 0:
-            _leg_prismatic(L, d, i, branch[i], m, Li, V, dyn)
+            _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn)
         elif k == 1:
-            _leg_revolute(L, d, i, branch[i], m, Li, V, dyn)
+            _leg_revolute(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn)
         else:
-            _leg_strut(L, d, i, m, Li, dyn)
+            _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn)
     _pose_rows(Lg, GG, ct, FRb, m, J, nt)
     if cols:
         for c in range(n):
@@ -1085,7 +1082,7 @@ def _block(nt, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, v
                     x = J[(i * n + c) * BLK + j]
                     s += x * x
                 vb[(COL0 + c) * CHUNK + j] = s
-    _inverse(J, Rq, U, V, nt, m)
+    _inverse(J, U, V, nt, m)
     for j in range(m):
         s = 0.0
         for i in range(n * n):
@@ -1100,25 +1097,21 @@ def _block(nt, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, v
         vb[IFRO * CHUNK + j] = 1.0 / cf
         vb[DET * CHUNK + j] = det
     if sv_inv:
-        _gram_rows(U, Gm, nt, m)
-        _lmax(Gm, V[VLU * BLK:(VLU + 1) * BLK], T, V, nt, m)
+        _lmax_rows(U, V[VLU * BLK:(VLU + 1) * BLK], T, V, nt, m)
         for j in range(m):
             s2 = 1.0 / V[VLU * BLK + j]
             vb[SMIN2 * CHUNK + j] = s2
             vb[SMIN * CHUNK + j] = math.sqrt(s2)
         if sv_j:
-            _gram_cols(J, Gm, nt, m)
-            _lmax(Gm, V[VLJ * BLK:(VLJ + 1) * BLK], T, V, nt, m)
+            _lmax_cols(J, V[VLJ * BLK:(VLJ + 1) * BLK], T, V, nt, m)
             for j in range(m):
                 vb[TWO * CHUNK + j] = math.sqrt(V[VLJ * BLK + j] * V[VLU * BLK + j])
     if dyn:
         if rods:
             _pose_rows(Lg, GK, ct, FRb, m, Kp, nt)
         _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot)
-        _mass(B, Lg, J, Kp, ct, FRb, m, M, V[VS * BLK:(VS + 2 * n) * BLK], nt, rods)
-        _t_times(U, M, Wm, nt, m)
-        _gram_cols(Wm, Gm, nt, m)
-        _lmax(Gm, V[VLW * BLK:(VLW + 1) * BLK], T, V, nt, m)
+        _dyn_w(B, Lg, J, Kp, FRb, U, Wm, nt, cspec, m)
+        _lmax_cols(Wm, V[VLW * BLK:(VLW + 1) * BLK], T, V, nt, m)
         for j in range(m):
             vb[DYN * CHUNK + j] = math.sqrt(V[VLW * BLK + j])
     for v in range(NVAL):
@@ -1167,25 +1160,26 @@ def _chunk_stats(vals, cb, n_pts, want, out):
 
 
 @njit(**_NJIT)
-def _task(nt, ptype, ct, kind, branch, L, F, d, FRd, c, n_pts, want, flags, scratch, vals, cb, out):
+def _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, c, n_pts, want, flags, scratch, vals, cb, out):
     """Codes of the n_pts points of chunk c (its blocks of FRd) into cb (as
     floats) and the chunk's (sum, min, max, centred sum of squares) per wanted
     value into out (NVAL, 4); returns the count of code-1 points."""
     nb = CHUNK // BLK
     for b in range(0, n_pts, BLK):
         m = min(BLK, n_pts - b)
-        _block(nt, ptype, ct, kind, branch, L, F, d, FRd[c * nb + b // BLK], m, want, flags, scratch, vals[b:],
+        _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd[c * nb + b // BLK], m, want, flags, scratch, vals[b:],
                cb[b:])
     return _chunk_stats(vals, cb, n_pts, want, out)
 
 
 @njit(parallel=True, **_NJIT)
-def summary(nt, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
+def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
     """Per-design statistics (D, NVAL, 4: sum, min, max, centred sum of squares)
     over the points of code 1, their counts (D,), the codes (D, N) (int8).
 
     nt: a tuple of n zeros (its length, the size, is a compile-time constant);
-    ct (n,): pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
+    cspec: the pose-column kinds and rods as a type (column_spec: compile-time
+    too); ct (n,): the pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
     FR (1 or D, blocks, NFR BLK): the frame data of the N points in blocks of
     BLK (rows of BLK); want (NVAL,) booleans; flags: (dynamic, sigma_min,
     sigma_max, column norms, rods, rotations) booleans.  Work: tasks of CHUNK
@@ -1209,7 +1203,7 @@ def summary(nt, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
             lo = c * CHUNK
             hi = min(lo + CHUNK, N)
             FRd = FR[d] if per_design else FR[0]
-            cnt[d, c] = _task(nt, ptype, ct, kind, branch, L, F, d, FRd, c, hi - lo, want, flags, scratch, vals,
+            cnt[d, c] = _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, c, hi - lo, want, flags, scratch, vals,
                               cbuf, part[d, c])
             cd = codes[d, lo:hi]
             for j in range(hi - lo):
@@ -1249,11 +1243,12 @@ def summary(nt, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
 
 
 @njit(**_NJIT)
-def lambda_max_stack(A, nt):
-    """lambda_max of each symmetric PSD matrix of the stack A (K, n, n), by the
-    kernel's own routine (for tests); nt: a tuple of n zeros."""
+def gram_lambda_max_stack(X, nt, rows):
+    """lambda_max of X^T X (rows False) or of X X^T (rows True; X upper
+    triangular for n >= 4, as _inverse leaves it) for each X of the stack
+    (K, n, n), by the kernel's own routines (for tests); nt: a tuple of n zeros."""
     n = len(nt)
-    K = A.shape[0]
+    K = X.shape[0]
     out = np.empty(K)
     G = np.empty(n * n * BLK)
     T = np.empty(2 * n * BLK)
@@ -1264,9 +1259,12 @@ def lambda_max_stack(A, nt):
         for j in range(m):
             for r in range(n):
                 for c in range(n):
-                    G[(r * n + c) * BLK + j] = A[b + j, r, c]
+                    G[(r * n + c) * BLK + j] = X[b + j, r, c]
             V[VMASK * BLK + j] = 1.0
-        _lmax(G, lam, T, V, nt, m)
+        if rows:
+            _lmax_rows(G, lam, T, V, nt, m)
+        else:
+            _lmax_cols(G, lam, T, V, nt, m)
         for j in range(m):
             out[b + j] = lam[j]
     return out
@@ -1283,8 +1281,7 @@ def inverse_stack(A, nt):
     i2 = np.empty(K)
     Ui = np.empty((K, n, n))
     Rq = np.empty(n * n * BLK)
-    G = np.empty(n * n * BLK)
-    U = np.empty(n * n * BLK)
+    U = np.zeros(n * n * BLK)
     V = np.empty((NVS + 3 * n) * BLK)
     for b in range(0, K, BLK):
         m = min(BLK, K - b)
@@ -1292,7 +1289,7 @@ def inverse_stack(A, nt):
             for r in range(n):
                 for c in range(n):
                     Rq[(r * n + c) * BLK + j] = A[b + j, r, c]
-        _inverse(Rq, G, U, V, nt, m)
+        _inverse(Rq, U, V, nt, m)
         for j in range(m):
             det[b + j] = V[VDET * BLK + j]
             i2[b + j] = V[VI2 * BLK + j]

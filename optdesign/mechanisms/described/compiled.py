@@ -145,8 +145,7 @@ def pack(mech):
 def frame_rows(mech, X, fixed):
     """The kernel's per-point frame data (g, blocks, NFR BLK) from the numpy
     path's own frames (optdesign.mechanisms.described.poses), for fixed angles
-    (g, 1, 3) shaped as the numpy path's design axis: R (not for translation
-    poses), the entries of the Euler columns (rotation and spatial poses), the
+    (g, 1, 3) shaped as the numpy path's design axis: R, the entries of the Euler columns (rotation and spatial poses), the
     origin from the pose (the centre of a rotation pose is added by the
     kernel); the points in blocks of BLK (rows of BLK values)."""
     from . import _kernels as K
@@ -168,9 +167,8 @@ def frame_rows(mech, X, fixed):
     if spec.type != "rotation":
         for k in range(3):
             put(K.FRO_ + k, fr.origin[..., k])
-    if spec.type != "translation":
-        for k in range(9):
-            put(K.FRR + k, fr.R[..., k // 3, k % 3])
+    for k in range(9):
+        put(K.FRR + k, fr.R[..., k // 3, k % 3])
     if spec.type in ("rotation", "spatial"):
         cp, sp = np.cos(fr.angles["pitch"]), np.sin(fr.angles["pitch"])
         cy, sy = np.cos(fr.angles["yaw"]), np.sin(fr.angles["yaw"])
@@ -190,10 +188,11 @@ def _run_kernel(K, mech, codes, L, F, X, want):
     ptype, ct, kind, branch = codes
     n = len(kind)
     nt = (0,) * n
+    cspec = K.column_spec(ct, np.any(kind != 2))
     N = X.shape[0]
     flags = (bool(want[K.DYN]), bool(want[K.SMIN] or want[K.SMIN2] or want[K.TWO]), bool(want[K.TWO]),
              bool(want[K.COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
-    args = (nt, ptype, ct, kind, branch)
+    args = (nt, cspec, ptype, ct, kind, branch)
     import numba
 
     workers = numba.get_num_threads()
