@@ -74,11 +74,14 @@ NL = 26
 #: layout of the per-design constants F (D, NF)
 FCEN, FFIX, FMP, FIP, FCOM = 0, 3, 6, 7, 16
 NF = 19
-#: rows of the per-point frame data FR (Dr, blocks, NFR BLK): R row-major, the
-#: Euler columns' entries (cos yaw cos pitch, sin yaw cos pitch, -sin pitch,
-#: -sin yaw, cos yaw) and the origin from the pose (0 for rotation poses)
-FRR, FRE, FRO_ = 0, 9, 14
+#: columns of the per-point frame data FR (Dr, N, FR_ROWS[ptype]), rows of a
+#: block's frame data (rows, BLK): the origin from the pose (0 for rotation
+#: poses), R row-major (not for translation poses), the Euler columns' entries
+#: (cos yaw cos pitch, sin yaw cos pitch, -sin pitch, -sin yaw, cos yaw;
+#: rotation and spatial poses); their number per pose type
+FRO_, FRR, FRE = 0, 3, 12
 NFR = 17
+FR_ROWS = (3, 12, 17, 17)
 #: pose-column kinds (ct): 0..5 a twist component; roll's and pitch's Euler columns
 CT_ROLL, CT_PITCH = 6, 7
 #: rows of the per-leg scratch (n, NLG BLK)
@@ -90,6 +93,8 @@ NVS = 12
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
 _NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+#: options of the overloads (their code is compiled into the cached kernels that call them)
+_GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
 #: the Newton steps of _lmax_tri, and the relative half-width of its check
 NEWTON = 6
 TAU = 1e-13
@@ -330,16 +335,30 @@ def _inverse_small(A, U, V, nt, m):
 
 
 # ---------------------------------------------------------------------- legs
-@njit(inline="always", **_NJIT)
-def _platform_point(FRb, j, P0, P1, P2, c0, c1, c2):
-    """r = R P and b = (o + centre) + r at point j of the frame block."""
-    r0 = FRb[_u(FRR * BLK + j)] * P0 + FRb[_u((FRR + 1) * BLK + j)] * P1 + FRb[_u((FRR + 2) * BLK + j)] * P2
-    r1 = FRb[_u((FRR + 3) * BLK + j)] * P0 + FRb[_u((FRR + 4) * BLK + j)] * P1 + FRb[_u((FRR + 5) * BLK + j)] * P2
-    r2 = FRb[_u((FRR + 6) * BLK + j)] * P0 + FRb[_u((FRR + 7) * BLK + j)] * P1 + FRb[_u((FRR + 8) * BLK + j)] * P2
-    b0 = (FRb[_u(FRO_ * BLK + j)] + c0) + r0
-    b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + c1) + r1
-    b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + c2) + r2
-    return r0, r1, r2, b0, b1, b2
+def _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+    """r = R P and b = (o + centre) + r at point j of the frame block (R = I
+    for a translation pose, whose frame block has no R rows)."""
+
+
+@overload(_platform_point, inline="always", jit_options=_GEN_OPTIONS)
+def _ov_platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+    if _spec_of(cspec)[2]:
+        def impl(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+            r0 = FRb[_u(FRR * BLK + j)] * P0 + FRb[_u((FRR + 1) * BLK + j)] * P1 + FRb[_u((FRR + 2) * BLK + j)] * P2
+            r1 = FRb[_u((FRR + 3) * BLK + j)] * P0 + FRb[_u((FRR + 4) * BLK + j)] * P1 + FRb[_u((FRR + 5) * BLK + j)] * P2
+            r2 = FRb[_u((FRR + 6) * BLK + j)] * P0 + FRb[_u((FRR + 7) * BLK + j)] * P1 + FRb[_u((FRR + 8) * BLK + j)] * P2
+            b0 = (FRb[_u(FRO_ * BLK + j)] + o0) + r0
+            b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + o1) + r1
+            b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + o2) + r2
+            return r0, r1, r2, b0, b1, b2
+        return impl
+
+    def impl(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+        b0 = (FRb[_u(FRO_ * BLK + j)] + o0) + P0
+        b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + o1) + P1
+        b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + o2) + P2
+        return P0, P1, P2, b0, b1, b2
+    return impl
 
 
 @njit(inline="always", **_NJIT)
@@ -381,7 +400,7 @@ def _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, l2, ma):
 
 
 @njit(**_NJIT)
-def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
+def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
     """Slider at a = A + q u, rod of length l: q = u.w -+ sqrt((u.w)^2 - |w|^2 + l^2)."""
     A0 = L[d, i, LA]
     A1 = L[d, i, LA + 1]
@@ -401,7 +420,7 @@ def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
     o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
     o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
         Li[GR * BLK + j] = r0
         Li[(GR + 1) * BLK + j] = r1
         Li[(GR + 2) * BLK + j] = r2
@@ -440,7 +459,7 @@ def _wrap(q):
 
 
 @njit(**_NJIT)
-def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
+def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
     """Crank of length L_a about k through A (tip A + L_a (cos q r0 + sin q s0)),
     rod of length l: q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)."""
     A0 = L[d, i, LA]
@@ -465,7 +484,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
     o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
     o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
         Li[GR * BLK + j] = r0
         Li[(GR + 1) * BLK + j] = r1
         Li[(GR + 2) * BLK + j] = r2
@@ -514,7 +533,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn):
 
 
 @njit(**_NJIT)
-def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn):
+def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn, cspec):
     """Strut of actuated length q = |w|.  Bodies: the lower part (mass m1,
     centre e1 from A) and the upper part (m2, centre e2 from b), inertia I12
     between them, all turning with n x bdot / q; with p = (bdot - n (n.bdot)) / q
@@ -540,7 +559,7 @@ def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn):
     o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
     o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
     for j in range(m):
-        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2)
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
         Li[GR * BLK + j] = r0
         Li[(GR + 1) * BLK + j] = r1
         Li[(GR + 2) * BLK + j] = r2
@@ -744,7 +763,6 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
 # @overload of a stub; the code is compiled into (and cached with) the kernel
 # that calls it, and this file's source is the generator, so editing it
 # invalidates the cache as for any other kernel code.
-_GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
 _GEN_NAMES = {"math": math, "np": np, "_u": _u, "BLK": BLK, "NEWTON": NEWTON, "TAU": TAU,
               "VDET": VDET, "VI2": VI2, "VBETA": VBETA, "VV0": VV0, "VMASK": VMASK}
 
@@ -949,19 +967,20 @@ def _ov_lmax_rows(X, out, T, V, nt, m):
 
 
 def _spec_of(cspec):
-    """(pose-column kinds, rods) from the type of cspec: an array whose record
-    dtype's field names say them (k<i>_<kind> per pose column, rods_<0|1>), so
-    that they are compile-time constants (see column_spec)."""
+    """(pose-column kinds, rods, rotations) from the type of cspec: an array
+    whose record dtype's field names say them (k<i>_<kind> per pose column,
+    rods_<0|1>, rot_<0|1>), so that they are compile-time constants (see
+    column_spec)."""
     names = list(cspec.dtype.fields.keys())
     kinds = [int(nm.split("_")[1]) for nm in names if nm.startswith("k")]
-    rods = any(nm == "rods_1" for nm in names)
-    return kinds, rods
+    return kinds, "rods_1" in names, "rot_1" in names
 
 
-def column_spec(ct, rods):
-    """The array (1,) whose record dtype encodes the pose-column kinds ct and
-    whether any leg has a rod (for _spec_of)."""
-    fields = [(f"k{i}_{int(k)}", "u1") for i, k in enumerate(ct)] + [(f"rods_{int(bool(rods))}", "u1")]
+def column_spec(ct, rods, rot):
+    """The array (1,) whose record dtype encodes the pose-column kinds ct,
+    whether any leg has a rod and whether the pose has angles (for _spec_of)."""
+    fields = ([(f"k{i}_{int(k)}", "u1") for i, k in enumerate(ct)]
+              + [(f"rods_{int(bool(rods))}", "u1"), (f"rot_{int(bool(rot))}", "u1")])
     return np.zeros(1, dtype=np.dtype(fields))
 
 
@@ -978,12 +997,13 @@ def _times(coef, expr):
     return expr if coef is None else f"{coef} * {expr}"
 
 
-def _gen_dyn(n, kinds, rods):
+def _gen_dyn(n, kinds, rods, mass_only=False):
     """W = U^T M_p without M_p stored: M_p = S^T B S + sum_i [gamma_i J_i^T J_i +
     delta_i (J_i^T K_i + K_i^T J_i)] written as s_a.(B s_b) + sum_i (J_ia P_ib +
     K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib; the
     pose columns s of the given kinds (a selection or the Euler columns) are
-    expanded in the code, so only the entries of B they meet are read."""
+    expanded in the code, so only the entries of B they meet are read.
+    mass_only: store M_p itself (full) into W instead (U is not read)."""
     upper = n >= 4
     L = ["def impl(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):", "    for j in range(m):"]
     if any(k >= 6 for k in kinds):
@@ -1020,6 +1040,9 @@ def _gen_dyn(n, kinds, rods):
             sbs = " + ".join(_times(cf, f"tb{b}_{k}") for k, cf in svec[a].items())
             legs = " + ".join(f"j{i}_{a} * p{i}_{b}" + (f" + kp{i}_{a} * q{i}_{b}" if rods else "") for i in range(n))
             L.append(f"        m{a}_{b} = ({sbs}) + ({legs})")
+    if mass_only:
+        L += [f"        W[_u({a * n + b} * BLK + j)] = m{min(a, b)}_{max(a, b)}" for a in range(n) for b in range(n)]
+        return _compile(L)
     L += [f"        u{r}_{c} = U[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n) if not (upper and c < r)]
     for i in range(n):
         for b in range(n):
@@ -1035,8 +1058,18 @@ def _dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
 
 @overload(_dyn_w, jit_options=_GEN_OPTIONS)
 def _ov_dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
-    kinds, rods = _spec_of(cspec)
+    kinds, rods, _ = _spec_of(cspec)
     return _gen_dyn(nt.count, kinds, rods)
+
+
+def _mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    """W = M_p (full), see _gen_dyn."""
+
+
+@overload(_mass_p, jit_options=_GEN_OPTIONS)
+def _ov_mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    kinds, rods, _ = _spec_of(cspec)
+    return _gen_dyn(nt.count, kinds, rods, mass_only=True)
 
 
 # ---------------------------------------------------------------------- one block of points
@@ -1068,11 +1101,11 @@ def _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scr
         Li = Lg[i]
         k = kind[i]
         if k == 0:
-            _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn)
+            _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn, cspec)
         elif k == 1:
-            _leg_revolute(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn)
+            _leg_revolute(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn, cspec)
         else:
-            _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn)
+            _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn, cspec)
     _pose_rows(Lg, GG, ct, FRb, m, J, nt)
     if cols:
         for c in range(n):
@@ -1160,15 +1193,24 @@ def _chunk_stats(vals, cb, n_pts, want, out):
 
 
 @njit(**_NJIT)
-def _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, c, n_pts, want, flags, scratch, vals, cb, out):
-    """Codes of the n_pts points of chunk c (its blocks of FRd) into cb (as
-    floats) and the chunk's (sum, min, max, centred sum of squares) per wanted
-    value into out (NVAL, 4); returns the count of code-1 points."""
-    nb = CHUNK // BLK
+def _load_block(FRd, lo, m, FRb):
+    """The frame data of points lo..lo+m-1 (rows of FRd (N, rows)) into the rows of the block FRb."""
+    rows = FRd.shape[1]
+    src = FRd[lo:lo + m]
+    for k in range(rows):
+        for j in range(m):
+            FRb[_u(k * BLK + j)] = src[j, k]
+
+
+@njit(**_NJIT)
+def _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, lo, n_pts, want, flags, scratch, FRb, vals, cb, out):
+    """Codes of the n_pts points from lo into cb (as floats) and the chunk's
+    (sum, min, max, centred sum of squares) per wanted value into out (NVAL, 4);
+    returns the count of code-1 points."""
     for b in range(0, n_pts, BLK):
         m = min(BLK, n_pts - b)
-        _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd[c * nb + b // BLK], m, want, flags, scratch, vals[b:],
-               cb[b:])
+        _load_block(FRd, lo + b, m, FRb)
+        _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vals[b:], cb[b:])
     return _chunk_stats(vals, cb, n_pts, want, out)
 
 
@@ -1180,8 +1222,7 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
     nt: a tuple of n zeros (its length, the size, is a compile-time constant);
     cspec: the pose-column kinds and rods as a type (column_spec: compile-time
     too); ct (n,): the pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
-    FR (1 or D, blocks, NFR BLK): the frame data of the N points in blocks of
-    BLK (rows of BLK); want (NVAL,) booleans; flags: (dynamic, sigma_min,
+    FR (1 or D, N, FR_ROWS[ptype]): the frame data of the N points; want (NVAL,) booleans; flags: (dynamic, sigma_min,
     sigma_max, column norms, rods, rotations) booleans.  Work: tasks of CHUNK
     points of one design, shared among ``workers`` parallel loops (numba's
     thread count) in a fixed pattern; each task's results are its own."""
@@ -1195,6 +1236,7 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
     per_design = FR.shape[0] > 1
     for w in prange(nw):
         scratch = _alloc(nt)
+        FRb = np.zeros(NFR * BLK)
         vals = np.zeros(NVAL * CHUNK)
         cbuf = np.empty(CHUNK)
         for t in range(w, ntask, nw):
@@ -1203,8 +1245,8 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
             lo = c * CHUNK
             hi = min(lo + CHUNK, N)
             FRd = FR[d] if per_design else FR[0]
-            cnt[d, c] = _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, c, hi - lo, want, flags, scratch, vals,
-                              cbuf, part[d, c])
+            cnt[d, c] = _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, lo, hi - lo, want, flags, scratch, FRb,
+                              vals, cbuf, part[d, c])
             cd = codes[d, lo:hi]
             for j in range(hi - lo):
                 cd[j] = np.int8(cbuf[j])
@@ -1240,6 +1282,48 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
             stats[d, v, 2] = mx
             stats[d, v, 3] = m2
     return stats, counts, codes
+
+
+@njit(parallel=True, **_NJIT)
+def mass_blocks(nt, cspec, ptype, ct, kind, branch, L, F, FRg, bd, workers):
+    """The pose-space mass matrices M_p (blocks, n n BLK; row-major entries,
+    rows of BLK) at the points of FRg (blocks BLK, rows), block b (its BLK
+    points) of design bd[b]: for the points the kernel leaves to the numpy path,
+    whose J that path computes itself (bitwise its own) while M_p enters the
+    dynamic index through J^-T M_p, insensitive to its round-off."""
+    n = len(nt)
+    nb = FRg.shape[0] // BLK
+    out = np.zeros((nb, n * n * BLK))
+    flags = (True, False, False, False, True, ptype != 0)
+    rods = False
+    for i in range(n):
+        rods = rods or kind[i] != 2
+    nw = max(1, min(workers, nb))
+    for w in prange(nw):
+        Lg, mats, B, T, V = _alloc(nt)
+        J = mats[0]
+        Kp = mats[2]
+        FRb = np.zeros(NFR * BLK)
+        for b in range(w, nb, nw):
+            d = bd[b]
+            _load_block(FRg, b * BLK, BLK, FRb)
+            for j in range(BLK):
+                V[VOK * BLK + j] = 1.0
+            for i in range(n):
+                Li = Lg[i]
+                k = kind[i]
+                if k == 0:
+                    _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+                elif k == 1:
+                    _leg_revolute(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+                else:
+                    _leg_strut(L, F, d, i, ptype, FRb, BLK, Li, True, cspec)
+            _pose_rows(Lg, GG, ct, FRb, BLK, J, nt)
+            if rods:
+                _pose_rows(Lg, GK, ct, FRb, BLK, Kp, nt)
+            _rigid(ptype, F, d, FRb, BLK, Lg, B, nt, flags[5])
+            _mass_p(B, Lg, J, Kp, FRb, mats[1], out[b], nt, cspec, BLK)
+    return out
 
 
 @njit(**_NJIT)
