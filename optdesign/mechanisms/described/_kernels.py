@@ -96,7 +96,7 @@ _NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
 #: options of the overloads (their code is compiled into the cached kernels that call them)
 _GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
 #: the Newton steps of _lmax_tri, and the relative half-width of its check
-NEWTON = 6
+NEWTON = 5
 TAU = 1e-13
 #: closed form of _lmax3: the start of e^{i theta / 3} from z = e^{i theta}
 #: (c0 + c1 z + c2 conj(z) + c3 z^2, |error| < 0.02 on theta in [0, pi]),
@@ -1284,45 +1284,44 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
     return stats, counts, codes
 
 
-@njit(parallel=True, **_NJIT)
-def mass_blocks(nt, cspec, ptype, ct, kind, branch, L, F, FRg, bd, workers):
+@njit(**_NJIT)
+def mass_blocks(nt, cspec, ptype, ct, kind, branch, L, F, FRg, bd):
     """The pose-space mass matrices M_p (blocks, n n BLK; row-major entries,
     rows of BLK) at the points of FRg (blocks BLK, rows), block b (its BLK
-    points) of design bd[b]: for the points the kernel leaves to the numpy path,
-    whose J that path computes itself (bitwise its own) while M_p enters the
-    dynamic index through J^-T M_p, insensitive to its round-off."""
+    points) of design bd[b]: for the points the kernel leaves to the numpy
+    path, whose J that path computes itself (bitwise its own) while M_p enters
+    the dynamic index through J^-T M_p, insensitive to its round-off.  Serial:
+    the points are few, and a parallel region started right after numpy's
+    LAPACK calls waits for the BLAS threads still spinning."""
     n = len(nt)
     nb = FRg.shape[0] // BLK
     out = np.zeros((nb, n * n * BLK))
-    flags = (True, False, False, False, True, ptype != 0)
     rods = False
     for i in range(n):
         rods = rods or kind[i] != 2
-    nw = max(1, min(workers, nb))
-    for w in prange(nw):
-        Lg, mats, B, T, V = _alloc(nt)
-        J = mats[0]
-        Kp = mats[2]
-        FRb = np.zeros(NFR * BLK)
-        for b in range(w, nb, nw):
-            d = bd[b]
-            _load_block(FRg, b * BLK, BLK, FRb)
-            for j in range(BLK):
-                V[VOK * BLK + j] = 1.0
-            for i in range(n):
-                Li = Lg[i]
-                k = kind[i]
-                if k == 0:
-                    _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
-                elif k == 1:
-                    _leg_revolute(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
-                else:
-                    _leg_strut(L, F, d, i, ptype, FRb, BLK, Li, True, cspec)
-            _pose_rows(Lg, GG, ct, FRb, BLK, J, nt)
-            if rods:
-                _pose_rows(Lg, GK, ct, FRb, BLK, Kp, nt)
-            _rigid(ptype, F, d, FRb, BLK, Lg, B, nt, flags[5])
-            _mass_p(B, Lg, J, Kp, FRb, mats[1], out[b], nt, cspec, BLK)
+    Lg, mats, B, T, V = _alloc(nt)
+    J = mats[0]
+    Kp = mats[2]
+    FRb = np.zeros(NFR * BLK)
+    for b in range(nb):
+        d = bd[b]
+        _load_block(FRg, b * BLK, BLK, FRb)
+        for j in range(BLK):
+            V[VOK * BLK + j] = 1.0
+        for i in range(n):
+            Li = Lg[i]
+            k = kind[i]
+            if k == 0:
+                _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+            elif k == 1:
+                _leg_revolute(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+            else:
+                _leg_strut(L, F, d, i, ptype, FRb, BLK, Li, True, cspec)
+        _pose_rows(Lg, GG, ct, FRb, BLK, J, nt)
+        if rods:
+            _pose_rows(Lg, GK, ct, FRb, BLK, Kp, nt)
+        _rigid(ptype, F, d, FRb, BLK, Lg, B, nt, ptype != 0)
+        _mass_p(B, Lg, J, Kp, FRb, mats[1], out[b], nt, cspec, BLK)
     return out
 
 

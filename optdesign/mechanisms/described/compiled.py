@@ -246,10 +246,8 @@ def _mass_at(K, mech, codes, L, F, X, dd, jj):
         frs.append(np.concatenate([fr, np.zeros((nb * K.BLK - (b - a), fr.shape[1]))]))
         nbs.append(nb)
     bd = np.repeat(dd[starts].astype(np.int64), nbs)
-    import numba
-
     Mp = K.mass_blocks((0,) * n, K.column_spec(ct, np.any(kind != 2), ptype != 0), ptype, ct, kind, branch, L, F,
-                       np.concatenate(frs), bd, numba.get_num_threads())
+                       np.concatenate(frs), bd)
     Mp = Mp.reshape(-1, n * n, K.BLK).transpose(0, 2, 1).reshape(-1, n, n)
     offs = np.cumsum([0] + nbs[:-1]) * K.BLK
     rows = np.concatenate([o + np.arange(b - a) for a, b, o in zip(starts, ends, offs)])
