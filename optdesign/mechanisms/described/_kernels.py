@@ -90,6 +90,9 @@ NLG = 18
 #: rows of the per-point vector scratch ((NVS + 3 n) BLK)
 VOK, VDET, VF2, VI2, VLJ, VLU, VLW, VBETA, VV0, VX, VMASK, VS = range(12)
 NVS = 12
+#: rows of the rigid-body matrix B (_rigid): mass, first moment, angular block
+BA, BS, BW = 0, 1, 4
+NB = 10
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
 _NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
@@ -579,9 +582,11 @@ def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn, cspec):
             iq = c * (iq * iq)
             Li[GAL * BLK + j] = m2 + iq
             Li[GGA * BLK + j] = -iq
-            Li[GDE * BLK + j] = 0.0
-            for k in range(6):
-                Li[(GK + k) * BLK + j] = 0.0
+    if dyn:
+        # no rod: delta = 0 and K = 0 (read only where another leg has a rod)
+        for k in range(7):
+            for j in range(m):
+                Li[(GDE if k == 6 else GK + k) * BLK + j] = 0.0
 
 
 @njit(**_NJIT)
@@ -610,11 +615,20 @@ def _pose_rows(Lg, src, ct, FRb, m, J, nt):
 # ---------------------------------------------------------------------- mass matrix
 @njit(**_NJIT)
 def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
-    """B (6 x 6): the rigid-body matrix sum_b m_b [I, -[r_b]x; [r_b]x, |r_b|^2 I - r_b r_b^T]
+    """The rigid-body matrix sum_b m_b [I, -[r_b]x; [r_b]x, |r_b|^2 I - r_b r_b^T]
     of the platform (mass at R c) and the legs' shares alpha_i at r_i, plus the
-    platform's R I_p R^T (rot: the pose has angles)."""
+    platform's R I_p R^T (rot: the pose has angles), as its ten numbers: rows
+    BA (the mass), BS..BS+2 (the first moment s: the block -[s]x), BW..BW+5
+    (the angular block: 00, 11, 22, 01, 02, 12).  Translation: the mass only."""
     n = len(nt)
     mp = F[d, FMP]
+    if ptype == 0:
+        for j in range(m):
+            a = mp
+            for i in range(n):
+                a += Lg[i, GAL * BLK + j]
+            B[BA * BLK + j] = a
+        return
     k0 = F[d, FCOM]
     k1 = F[d, FCOM + 1]
     k2 = F[d, FCOM + 2]
@@ -624,65 +638,44 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
     I11 = F[d, FIP + 4]
     I12 = F[d, FIP + 5]
     I22 = F[d, FIP + 8]
-    if ptype == 0:
-        # translation: S^T B S = (total mass) I
-        for j in range(m):
-            a = mp
-            for i in range(n):
-                a += Lg[i, GAL * BLK + j]
-            for k in range(3):
-                for l in range(3):
-                    B[(k * 6 + l) * BLK + j] = a if k == l else 0.0
-        return
-    # the platform
     for j in range(m):
-        if ptype == 0:
-            c0 = k0
-            c1 = k1
-            c2 = k2
-        else:
-            c0 = FRb[FRR * BLK + j] * k0 + FRb[(FRR + 1) * BLK + j] * k1 + FRb[(FRR + 2) * BLK + j] * k2
-            c1 = FRb[(FRR + 3) * BLK + j] * k0 + FRb[(FRR + 4) * BLK + j] * k1 + FRb[(FRR + 5) * BLK + j] * k2
-            c2 = FRb[(FRR + 6) * BLK + j] * k0 + FRb[(FRR + 7) * BLK + j] * k1 + FRb[(FRR + 8) * BLK + j] * k2
-        B[j] = mp
-        B[BLK + j] = mp * c0
-        B[2 * BLK + j] = mp * c1
-        B[3 * BLK + j] = mp * c2
-        B[4 * BLK + j] = mp * (c0 * c0)
-        B[5 * BLK + j] = mp * (c1 * c1)
-        B[6 * BLK + j] = mp * (c2 * c2)
-        B[7 * BLK + j] = mp * (c0 * c1)
-        B[8 * BLK + j] = mp * (c0 * c2)
-        B[9 * BLK + j] = mp * (c1 * c2)
-    # the legs' shares (rows 0..9 of B used as accumulators)
-    for i in range(n):
-        Li = Lg[i]
-        for j in range(m):
-            al = Li[GAL * BLK + j]
-            r0 = Li[GR * BLK + j]
-            r1 = Li[(GR + 1) * BLK + j]
-            r2 = Li[(GR + 2) * BLK + j]
-            B[j] += al
-            B[BLK + j] += al * r0
-            B[2 * BLK + j] += al * r1
-            B[3 * BLK + j] += al * r2
-            B[4 * BLK + j] += al * (r0 * r0)
-            B[5 * BLK + j] += al * (r1 * r1)
-            B[6 * BLK + j] += al * (r2 * r2)
-            B[7 * BLK + j] += al * (r0 * r1)
-            B[8 * BLK + j] += al * (r0 * r2)
-            B[9 * BLK + j] += al * (r1 * r2)
-    for j in range(m):
-        a = B[j]
-        s0 = B[BLK + j]
-        s1 = B[2 * BLK + j]
-        s2 = B[3 * BLK + j]
-        q00 = B[4 * BLK + j]
-        q11 = B[5 * BLK + j]
-        q22 = B[6 * BLK + j]
-        q01 = B[7 * BLK + j]
-        q02 = B[8 * BLK + j]
-        q12 = B[9 * BLK + j]
+        R00 = FRb[_u(FRR * BLK + j)]
+        R01 = FRb[_u((FRR + 1) * BLK + j)]
+        R02 = FRb[_u((FRR + 2) * BLK + j)]
+        R10 = FRb[_u((FRR + 3) * BLK + j)]
+        R11 = FRb[_u((FRR + 4) * BLK + j)]
+        R12 = FRb[_u((FRR + 5) * BLK + j)]
+        R20 = FRb[_u((FRR + 6) * BLK + j)]
+        R21 = FRb[_u((FRR + 7) * BLK + j)]
+        R22 = FRb[_u((FRR + 8) * BLK + j)]
+        c0 = R00 * k0 + R01 * k1 + R02 * k2
+        c1 = R10 * k0 + R11 * k1 + R12 * k2
+        c2 = R20 * k0 + R21 * k1 + R22 * k2
+        a = mp
+        s0 = mp * c0
+        s1 = mp * c1
+        s2 = mp * c2
+        q00 = mp * (c0 * c0)
+        q11 = mp * (c1 * c1)
+        q22 = mp * (c2 * c2)
+        q01 = mp * (c0 * c1)
+        q02 = mp * (c0 * c2)
+        q12 = mp * (c1 * c2)
+        for i in range(n):
+            al = Lg[i, GAL * BLK + j]
+            r0 = Lg[i, GR * BLK + j]
+            r1 = Lg[i, (GR + 1) * BLK + j]
+            r2 = Lg[i, (GR + 2) * BLK + j]
+            a += al
+            s0 += al * r0
+            s1 += al * r1
+            s2 += al * r2
+            q00 += al * (r0 * r0)
+            q11 += al * (r1 * r1)
+            q22 += al * (r2 * r2)
+            q01 += al * (r0 * r1)
+            q02 += al * (r0 * r2)
+            q12 += al * (r1 * r2)
         tr = q00 + q11 + q22
         w00 = tr - q00
         w11 = tr - q11
@@ -691,15 +684,6 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
         w02 = -q02
         w12 = -q12
         if rot:
-            R00 = FRb[FRR * BLK + j]
-            R01 = FRb[(FRR + 1) * BLK + j]
-            R02 = FRb[(FRR + 2) * BLK + j]
-            R10 = FRb[(FRR + 3) * BLK + j]
-            R11 = FRb[(FRR + 4) * BLK + j]
-            R12 = FRb[(FRR + 5) * BLK + j]
-            R20 = FRb[(FRR + 6) * BLK + j]
-            R21 = FRb[(FRR + 7) * BLK + j]
-            R22 = FRb[(FRR + 8) * BLK + j]
             # R I_p R^T
             x00 = R00 * I00 + R01 * I01 + R02 * I02
             x01 = R00 * I01 + R01 * I11 + R02 * I12
@@ -716,43 +700,16 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
             w01 += x00 * R10 + x01 * R11 + x02 * R12
             w02 += x00 * R20 + x01 * R21 + x02 * R22
             w12 += x10 * R20 + x11 * R21 + x12 * R22
-        # [[a I, -[s]x], [[s]x, W]] into rows (a * 6 + b) * BLK (written last: rows 0..9 were the accumulators)
-        B[(3 * 6 + 3) * BLK + j] = w00
-        B[(4 * 6 + 4) * BLK + j] = w11
-        B[(5 * 6 + 5) * BLK + j] = w22
-        B[(3 * 6 + 4) * BLK + j] = w01
-        B[(4 * 6 + 3) * BLK + j] = w01
-        B[(3 * 6 + 5) * BLK + j] = w02
-        B[(5 * 6 + 3) * BLK + j] = w02
-        B[(4 * 6 + 5) * BLK + j] = w12
-        B[(5 * 6 + 4) * BLK + j] = w12
-        B[(0 * 6 + 4) * BLK + j] = s2
-        B[(4 * 6 + 0) * BLK + j] = s2
-        B[(0 * 6 + 5) * BLK + j] = -s1
-        B[(5 * 6 + 0) * BLK + j] = -s1
-        B[(1 * 6 + 3) * BLK + j] = -s2
-        B[(3 * 6 + 1) * BLK + j] = -s2
-        B[(1 * 6 + 5) * BLK + j] = s0
-        B[(5 * 6 + 1) * BLK + j] = s0
-        B[(2 * 6 + 3) * BLK + j] = s1
-        B[(3 * 6 + 2) * BLK + j] = s1
-        B[(2 * 6 + 4) * BLK + j] = -s0
-        B[(4 * 6 + 2) * BLK + j] = -s0
-        B[(0 * 6 + 3) * BLK + j] = 0.0
-        B[(3 * 6 + 0) * BLK + j] = 0.0
-        B[(1 * 6 + 4) * BLK + j] = 0.0
-        B[(4 * 6 + 1) * BLK + j] = 0.0
-        B[(2 * 6 + 5) * BLK + j] = 0.0
-        B[(5 * 6 + 2) * BLK + j] = 0.0
-        B[(0 * 6 + 1) * BLK + j] = 0.0
-        B[(1 * 6 + 0) * BLK + j] = 0.0
-        B[(0 * 6 + 2) * BLK + j] = 0.0
-        B[(2 * 6 + 0) * BLK + j] = 0.0
-        B[(1 * 6 + 2) * BLK + j] = 0.0
-        B[(2 * 6 + 1) * BLK + j] = 0.0
-        B[(1 * 6 + 1) * BLK + j] = a
-        B[(2 * 6 + 2) * BLK + j] = a
-        B[j] = a
+        B[BA * BLK + j] = a
+        B[BS * BLK + j] = s0
+        B[(BS + 1) * BLK + j] = s1
+        B[(BS + 2) * BLK + j] = s2
+        B[BW * BLK + j] = w00
+        B[(BW + 1) * BLK + j] = w11
+        B[(BW + 2) * BLK + j] = w22
+        B[(BW + 3) * BLK + j] = w01
+        B[(BW + 4) * BLK + j] = w02
+        B[(BW + 5) * BLK + j] = w12
 
 
 # ---------------------------------------------------------------------- generated fixed-size code
@@ -997,6 +954,23 @@ def _times(coef, expr):
     return expr if coef is None else f"{coef} * {expr}"
 
 
+def _b_entry(k, l):
+    """Entry (k, l), k <= l, of the rigid-body matrix from its ten rows (_rigid):
+    a I, -[s]x and the angular block."""
+    if l < 3:
+        return f"B[_u({BA} * BLK + j)]" if k == l else "0.0"
+    if k < 3:
+        # -[s]x = [[0, s2, -s1], [-s2, 0, s0], [s1, -s0, 0]]
+        c = l - 3
+        sign, comp = {(0, 1): (1, 2), (0, 2): (-1, 1), (1, 0): (-1, 2), (1, 2): (1, 0), (2, 0): (1, 1),
+                      (2, 1): (-1, 0)}.get((k, c), (0, 0))
+        if not sign:
+            return "0.0"
+        return ("" if sign > 0 else "-") + f"B[_u({BS + comp} * BLK + j)]"
+    row = {(3, 3): 0, (4, 4): 1, (5, 5): 2, (3, 4): 3, (3, 5): 4, (4, 5): 5}[(k, l)]
+    return f"B[_u({BW + row} * BLK + j)]"
+
+
 def _gen_dyn(n, kinds, rods, mass_only=False):
     """W = U^T M_p without M_p stored: M_p = S^T B S + sum_i [gamma_i J_i^T J_i +
     delta_i (J_i^T K_i + K_i^T J_i)] written as s_a.(B s_b) + sum_i (J_ia P_ib +
@@ -1015,7 +989,7 @@ def _gen_dyn(n, kinds, rods, mass_only=False):
             for a in range(n):
                 for k in svec[a]:
                     need.add((min(k, l), max(k, l)))
-    L += [f"        b{k}_{l} = B[_u({k * 6 + l} * BLK + j)]" for k, l in sorted(need)]
+    L += [f"        b{k}_{l} = {_b_entry(k, l)}" for k, l in sorted(need)]
     # T_b[k] = (B s_b)_k for the components k the columns meet
     comps = sorted({k for sv in svec for k in sv})
     for b in range(n):
@@ -1077,10 +1051,10 @@ def _ov_mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
 def _alloc(nt):
     """The scratch of one worker (flat rows of BLK, zeros: code that computes a
     whole block reads finite numbers beyond m): legs (n, NLG BLK), four n x n
-    matrices (J, J^-1 or R^-1, K, W), the twist-space B (36 rows), the
+    matrices (J, J^-1 or R^-1, K, W), the rigid-body B (NB rows), the
     tridiagonal (2 n rows), vectors (NVS + 3 n rows)."""
     n = len(nt)
-    return (np.zeros((n, NLG * BLK)), np.zeros((4, n * n * BLK)), np.zeros(36 * BLK), np.zeros(2 * n * BLK),
+    return (np.zeros((n, NLG * BLK)), np.zeros((4, n * n * BLK)), np.zeros(NB * BLK), np.zeros(2 * n * BLK),
             np.zeros((NVS + 3 * n) * BLK))
 
 
