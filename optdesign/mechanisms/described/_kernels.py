@@ -1,39 +1,66 @@
 """Numba kernels of described mechanisms: one generic kernel for every leg
-kind and pose type, driven by per-design constant arrays.
+kind and pose type, driven by per-design constant arrays, compiled once per
+size ``n`` (legs = pose coordinates).
 
-Per (design, workspace point), the same formulas as the numpy path
-(:mod:`.poses`, :mod:`.legs`, :mod:`.dynamics`), in the same order where the
-order decides the reachable mask:
+Points are processed in blocks of BLK as structure-of-arrays: every
+intermediate quantity is a row of BLK values (``A[i, k, :]`` for entry
+(i, k) of a per-point matrix), and every stage is a loop over the block's
+points whose body is straight-line code, so that LLVM vectorizes it across
+points.  The size n reaches the kernels as the length of a tuple (``nt``), a
+compile-time constant: loops over matrix indices inside the point loops are
+unrolled (entries beyond a triangle are masked with selects, not skipped).
 
-* the platform frame (origin, ``R = Rz(yaw) Ry(pitch) Rx(roll)``) and the rate
-  map ``S`` (6 x dof; a selection of twist components for translation, planar
-  poses and the ``angular_velocity`` convention);
+Per (design, workspace point), the formulas of the numpy path (:mod:`.poses`,
+:mod:`.legs`, :mod:`.dynamics`), in the same order where the order decides
+the reachable mask:
+
+* the platform frame ``R`` and the rate map's Euler columns come from the
+  numpy path itself (``FR``: computed once per call, per point, by the caller);
 * per leg the closed-form inverse kinematics of its kind and branch, the rod
-  ``d``, ``d.t`` and the row ``J_i = (d, r x d) S / (d.t)``;
-* ``J^-1`` by Gauss-Jordan elimination with partial pivoting (its determinant
-  on the way), the Frobenius norms of J and J^-1;
-* singular values (stiffness, 2-norm condition) by one-sided Jacobi rotations
-  on J, which give every singular value to high relative accuracy;
-* the dynamic index: the pose-space mass matrix from the bodies (in pose
-  coordinates directly: every body's velocity map is ``V_xi S``),
-  ``M = J^-T M_p``, and sigma_max(M) by one-sided Jacobi;
+  ``d``, ``d.t`` and the twist row ``g_i = (d, r x d) / (d.t)``; J = G S
+  (S: a selection of twist components, or the Euler columns);
+* R of the QR factorization of J (Householder): ``|det J| = prod |R_kk|``,
+  ``||J^-1||_F = ||R^-1||_F`` and the singular values of J^-1 are those of
+  ``R^-1`` (Q is never formed);
+* every singular value an index needs is the largest of some matrix:
+  ``sigma_min(J)^2 = 1 / lambda_max(R^-1 R^-T)``, ``sigma_max(J)^2 =
+  lambda_max(J^T J)``, and for the dynamic index ``M = J^-T M_p = Q R^-T M_p``
+  so ``sigma_max(M)^2 = lambda_max(W^T W)`` with ``W = R^-T M_p``;
+* lambda_max of a symmetric positive semi-definite n x n matrix: in closed
+  form for n <= 3 (:func:`_lmax3`: no libm call, and no loss of digits at a
+  double eigenvalue); for n >= 4 a Householder tridiagonalization, NEWTON
+  steps on its characteristic polynomial that are exact for a pair of close
+  eigenvalues (:func:`_lmax_tri`), then a Sturm-count check that the value is
+  within TAU (relative) of lambda_max, and bisection for a point where it is not;
+* the pose-space mass matrix from the bodies, without forming the bodies'
+  velocity maps: ``M_p = S^T B S + sum_i [gamma_i J_i^T J_i + delta_i
+  (J_i^T K_i + K_i^T J_i)]`` with B the rigid-body matrix of the platform and
+  the bodies' shares that move with the platform points (see :func:`_leg_rod`,
+  :func:`_leg_strut`), J_i the Jacobian row and K_i the row of ``t.bdot``;
 * a reach code: 0 unreachable, 1 reachable, 2 reachable but ill-conditioned
   (``cond_F(J) >= HARD`` or anything not finite), left to the numpy path.
 
 The reductions: fixed chunks of CHUNK points per design, each with its count,
-sum, min, max and centred sum of squares, combined in chunk order, so results
-do not depend on the number of threads.
+sum, min, max and centred sum of squares in point order, combined in chunk
+order, so results do not depend on the number of threads.
 """
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
+from numba import uint64 as _u
 
 from ...fast._jit import NJIT as _NJIT
+from ...fast._jit import fma as _fma
 
+#: points per task: the unit of the reductions and of parallel work
 CHUNK = 256
+#: points per structure-of-arrays block (rows of the scratch arrays)
+BLK = 64
 #: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the numpy path)
 HARD = 1000.0
 #: local values (rows of the kernel's output)
@@ -47,6 +74,391 @@ NL = 26
 #: layout of the per-design constants F (D, NF)
 FCEN, FFIX, FMP, FIP, FCOM = 0, 3, 6, 7, 16
 NF = 19
+#: columns of the per-point frame data FR (Dr, N, FR_ROWS[ptype]), rows of a
+#: block's frame data (rows, BLK): the origin from the pose (0 for rotation
+#: poses), R row-major (not for translation poses), the Euler columns' entries
+#: (cos yaw cos pitch, sin yaw cos pitch, -sin pitch, -sin yaw, cos yaw;
+#: rotation and spatial poses); their number per pose type
+FRO_, FRR, FRE = 0, 3, 12
+NFR = 17
+FR_ROWS = (3, 12, 17, 17)
+#: pose-column kinds (ct): 0..5 a twist component; roll's and pitch's Euler columns
+CT_ROLL, CT_PITCH = 6, 7
+#: rows of the per-leg scratch (n, NLG BLK)
+GR, GG, GK, GAL, GGA, GDE = 0, 3, 9, 15, 16, 17
+NLG = 18
+#: rows of the per-point vector scratch ((NVS + 3 n) BLK)
+VOK, VDET, VF2, VI2, VLJ, VLU, VLW, VBETA, VV0, VX, VMASK, VS = range(12)
+NVS = 12
+#: rows of the rigid-body matrix B (_rigid): mass, first moment, angular block
+BA, BS, BW = 0, 1, 4
+NB = 10
+#: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
+#: order is still fixed by the code, so results do not depend on threads)
+_NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+#: options of the overloads (their code is compiled into the cached kernels that call them)
+_GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
+#: the Newton steps of lambda_max for n >= 4 (J^T J and J^-1 J^-T; W^T W of
+#: the dynamic index), and the relative half-width of their check: points not
+#: certified are bisected, correct but slower, so the counts are a trade-off
+#: (measured on the Gough-Stewart platform: 4 steps certify 90 % of its
+#: W^T W, 5 steps 99.99 %)
+NEWTON = 5
+NEWTON_DYN = 5
+TAU = 1e-13
+#: closed form of _lmax3: the start of e^{i theta / 3} from z = e^{i theta}
+#: (c0 + c1 z + c2 conj(z) + c3 z^2, |error| < 0.02 on theta in [0, pi]),
+#: then two Halley steps on w^3 = z
+_C0R, _C0I = 0.6687456362503021, 0.38610047310849865
+_C1R, _C1I = 0.19364836492632637, -0.3354088068550356
+_C2R, _C2I = 0.0494623499389, -0.08567130315592646
+_C3R, _C3I = 0.06931901548496303, 0.04002135225020323
+
+
+# ---------------------------------------------------------------------- lambda_max
+@njit(inline="always", **_NJIT)
+def _lmax3_point(a00, a11, a22, a01, a02, a12):
+    """Largest eigenvalue of the symmetric positive semi-definite 3 x 3 matrix.
+
+    With q = tr(A) / 3, B = A - q I, p^2 = tr(B^2) / 6: lambda_max = q + 2 p
+    cos(theta / 3), theta = atan2(y, det B) with y^2 = 4 p^6 - det(B)^2 the
+    discriminant written as a weighted sum of squares of the 2 x 2 minors of
+    the pair (B, B^2 - 2 p^2 I) (it vanishes with them at a double
+    eigenvalue, so it keeps its relative accuracy there instead of
+    cancelling); cos(theta / 3) is the real part of the principal cube root of
+    (det B + i y) / (2 p^3), by a polynomial start and two Halley steps
+    (arithmetic only: the point loop vectorizes).
+    """
+    tr = a00 + a11 + a22
+    q = tr * (1.0 / 3.0)
+    b00 = a00 - q
+    b11 = a11 - q
+    b22 = a22 - q
+    oo01 = a01 * a01
+    oo02 = a02 * a02
+    oo12 = a12 * a12
+    p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (oo01 + oo02 + oo12)) * (1.0 / 6.0)
+    det = b00 * (b11 * b22 - oo12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02)
+    t2 = 2.0 * p2
+    c00 = b00 * b00 + oo01 + oo02 - t2
+    c11 = oo01 + b11 * b11 + oo12 - t2
+    c22 = oo02 + oo12 + b22 * b22 - t2
+    c01 = a01 * (b00 + b11) + a02 * a12
+    c02 = a02 * (b00 + b22) + a01 * a12
+    c12 = a12 * (b11 + b22) + a01 * a02
+    # orthogonal coordinates of the traceless parts: two for the diagonal
+    # (weights 1/2, 1/6), the off-diagonal entries (weight 2)
+    bx1 = b00 - b11
+    bx2 = b00 + b11 - 2.0 * b22
+    cx1 = c00 - c11
+    cx2 = c00 + c11 - 2.0 * c22
+    m12 = bx1 * cx2 - bx2 * cx1
+    m13 = bx1 * c01 - a01 * cx1
+    m14 = bx1 * c02 - a02 * cx1
+    m15 = bx1 * c12 - a12 * cx1
+    m23 = bx2 * c01 - a01 * cx2
+    m24 = bx2 * c02 - a02 * cx2
+    m25 = bx2 * c12 - a12 * cx2
+    m34 = a01 * c02 - a02 * c01
+    m35 = a01 * c12 - a12 * c01
+    m45 = a02 * c12 - a12 * c02
+    lag = ((1.0 / 12.0) * (m12 * m12) + (m13 * m13 + m14 * m14 + m15 * m15)
+           + (1.0 / 3.0) * (m23 * m23 + m24 * m24 + m25 * m25) + 4.0 * (m34 * m34 + m35 * m35 + m45 * m45))
+    y = math.sqrt(lag) * (1.0 / 3.0)
+    sp = math.sqrt(p2)
+    rho = 2.0 * p2 * sp          # |det B + i y| = 2 p^3
+    ok = rho > 0.0
+    irho = 1.0 / (rho if ok else 1.0)
+    zr = det * irho if ok else 1.0
+    zi = y * irho if ok else 0.0
+    z2r = zr * zr - zi * zi
+    z2i = 2.0 * zr * zi
+    wr = _C0R + _C1R * zr - _C1I * zi + _C2R * zr + _C2I * zi + _C3R * z2r - _C3I * z2i
+    wi = _C0I + _C1R * zi + _C1I * zr + _C2I * zr - _C2R * zi + _C3R * z2i + _C3I * z2r
+    for _ in range(2):
+        # Halley on w^3 = z: w <- w (w^3 + 2 z) / (2 w^3 + z)
+        sr = wr * wr - wi * wi
+        si = 2.0 * wr * wi
+        cr = sr * wr - si * wi
+        ci = sr * wi + si * wr
+        nr0 = cr + 2.0 * zr
+        ni0 = ci + 2.0 * zi
+        nr = wr * nr0 - wi * ni0
+        ni = wr * ni0 + wi * nr0
+        dr = 2.0 * cr + zr
+        di = 2.0 * ci + zi
+        idd = 1.0 / (dr * dr + di * di)
+        wr = (nr * dr + ni * di) * idd
+        wi = (ni * dr - nr * di) * idd
+    lam = q + 2.0 * sp * wr
+    return lam if tr > 0.0 else 0.0
+
+
+@njit(inline="always", **_NJIT)
+def _count_below(T, j, n, x):
+    """The number of eigenvalues of the (scaled) tridiagonal T (diagonal rows
+    0..n-1, squared off-diagonal rows n..) below x: sign changes of the leading
+    principal minors of T - x I (Sturm)."""
+    p0 = 1.0
+    p1 = T[j] - x
+    cnt = 1 if p1 < 0.0 else 0
+    for k in range(1, n):
+        p2 = (T[_u(k * BLK + j)] - x) * p1 - T[_u((n + k - 1) * BLK + j)] * p0
+        cnt += 1 if (p2 < 0.0) != (p1 < 0.0) else 0
+        p0 = p1
+        p1 = p2
+    return cnt
+
+
+@njit(**_NJIT)
+def _bisect_flagged(T, out, V, nt, m):
+    """out[j] for the points flagged in V's row VV0 (lambda_max not certified by
+    the Newton steps): bisection of the scaled tridiagonal T to the last bit,
+    then the scale (V's row VBETA)."""
+    n = len(nt)
+    for j in range(m):
+        if V[_u(VV0 * BLK + j)] != 0.0:
+            lo = 0.0
+            hi = 1.0
+            for _ in range(80):
+                mid = 0.5 * (lo + hi)
+                if mid <= lo or mid >= hi:
+                    break
+                if _count_below(T, j, n, mid) == n:
+                    hi = mid
+                else:
+                    lo = mid
+            out[j] = 0.5 * (lo + hi) * V[_u(VBETA * BLK + j)]
+
+
+# ---------------------------------------------------------------------- dense small matrices
+@njit(inline="always", **_NJIT)
+def _minor_dd(a1, a2, b1, b2):
+    """a1 b2 - a2 b1 as an unevaluated sum hi + lo (error-free products, TwoSum)."""
+    p = a1 * b2
+    ep = _fma(a1, b2, -p)
+    q = a2 * b1
+    eq = _fma(a2, b1, -q)
+    h = p - q
+    bb = h - p
+    eh = (p - (h - bb)) + (-q - bb)
+    return h, eh + (ep - eq)
+
+
+@njit(inline="always", **_NJIT)
+def _dot3_dd(x0, x1, x2, h0, l0, h1, l1, h2, l2):
+    """x . (h + l) in about twice the working precision (products error-free, sums compensated)."""
+    p0 = x0 * h0
+    e0 = _fma(x0, h0, -p0)
+    p1 = x1 * h1
+    e1 = _fma(x1, h1, -p1)
+    p2 = x2 * h2
+    e2 = _fma(x2, h2, -p2)
+    s = p0 + p1
+    bb = s - p0
+    es = (p0 - (s - bb)) + (p1 - bb)
+    t = s + p2
+    bb = t - s
+    et = (s - (t - bb)) + (p2 - bb)
+    return t + ((es + et) + (e0 + e1 + e2) + (x0 * l0 + x1 * l1 + x2 * l2))
+
+
+@njit(**_NJIT)
+def _inverse_small(A, U, V, nt, m):
+    """U = A^-1 for n <= 3 by the adjugate, its minors and the determinant in
+    about twice the working precision (so U's entries are exact to a few ulps
+    whatever cond(A): the cancellation of near-singular points stays out);
+    V rows VDET <- |det A|, VI2 <- ||U||_F^2."""
+    n = len(nt)
+    if n == 1:
+        for j in range(m):
+            a = A[j]
+            u = 1.0 / a
+            U[j] = u
+            V[VDET * BLK + j] = abs(a)
+            V[VI2 * BLK + j] = u * u
+    elif n == 2:
+        for j in range(m):
+            a = A[j]
+            b = A[BLK + j]
+            c = A[2 * BLK + j]
+            d = A[3 * BLK + j]
+            h, lo = _minor_dd(a, b, c, d)
+            det = h + lo
+            iv = 1.0 / det
+            u00 = d * iv
+            u01 = -b * iv
+            u10 = -c * iv
+            u11 = a * iv
+            U[j] = u00
+            U[BLK + j] = u01
+            U[2 * BLK + j] = u10
+            U[3 * BLK + j] = u11
+            V[VDET * BLK + j] = abs(det)
+            V[VI2 * BLK + j] = (u00 * u00 + u01 * u01) + (u10 * u10 + u11 * u11)
+    else:
+        for j in range(m):
+            a0 = A[j]
+            a1 = A[BLK + j]
+            a2 = A[2 * BLK + j]
+            b0 = A[3 * BLK + j]
+            b1 = A[4 * BLK + j]
+            b2 = A[5 * BLK + j]
+            c0 = A[6 * BLK + j]
+            c1 = A[7 * BLK + j]
+            c2 = A[8 * BLK + j]
+            # column k of A^-1: the cross product of the other two rows over det
+            h00, l00 = _minor_dd(b1, b2, c1, c2)
+            h01, l01 = _minor_dd(b2, b0, c2, c0)
+            h02, l02 = _minor_dd(b0, b1, c0, c1)
+            h10, l10 = _minor_dd(c1, c2, a1, a2)
+            h11, l11 = _minor_dd(c2, c0, a2, a0)
+            h12, l12 = _minor_dd(c0, c1, a0, a1)
+            h20, l20 = _minor_dd(a1, a2, b1, b2)
+            h21, l21 = _minor_dd(a2, a0, b2, b0)
+            h22, l22 = _minor_dd(a0, a1, b0, b1)
+            det = _dot3_dd(a0, a1, a2, h00, l00, h01, l01, h02, l02)
+            iv = 1.0 / det
+            u00 = (h00 + l00) * iv
+            u10 = (h01 + l01) * iv
+            u20 = (h02 + l02) * iv
+            u01 = (h10 + l10) * iv
+            u11 = (h11 + l11) * iv
+            u21 = (h12 + l12) * iv
+            u02 = (h20 + l20) * iv
+            u12 = (h21 + l21) * iv
+            u22 = (h22 + l22) * iv
+            U[j] = u00
+            U[BLK + j] = u01
+            U[2 * BLK + j] = u02
+            U[3 * BLK + j] = u10
+            U[4 * BLK + j] = u11
+            U[5 * BLK + j] = u12
+            U[6 * BLK + j] = u20
+            U[7 * BLK + j] = u21
+            U[8 * BLK + j] = u22
+            V[VDET * BLK + j] = abs(det)
+            V[VI2 * BLK + j] = ((u00 * u00 + u01 * u01 + u02 * u02) + (u10 * u10 + u11 * u11 + u12 * u12)
+                                + (u20 * u20 + u21 * u21 + u22 * u22))
+
+
+# ---------------------------------------------------------------------- legs
+def _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+    """r = R P and b = (o + centre) + r at point j of the frame block (R = I
+    for a translation pose, whose frame block has no R rows)."""
+
+
+@overload(_platform_point, inline="always", jit_options=_GEN_OPTIONS)
+def _ov_platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+    if _spec_of(cspec)[2]:
+        def impl(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+            r0 = FRb[_u(FRR * BLK + j)] * P0 + FRb[_u((FRR + 1) * BLK + j)] * P1 + FRb[_u((FRR + 2) * BLK + j)] * P2
+            r1 = FRb[_u((FRR + 3) * BLK + j)] * P0 + FRb[_u((FRR + 4) * BLK + j)] * P1 + FRb[_u((FRR + 5) * BLK + j)] * P2
+            r2 = FRb[_u((FRR + 6) * BLK + j)] * P0 + FRb[_u((FRR + 7) * BLK + j)] * P1 + FRb[_u((FRR + 8) * BLK + j)] * P2
+            b0 = (FRb[_u(FRO_ * BLK + j)] + o0) + r0
+            b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + o1) + r1
+            b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + o2) + r2
+            return r0, r1, r2, b0, b1, b2
+        return impl
+
+    def impl(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
+        b0 = (FRb[_u(FRO_ * BLK + j)] + o0) + P0
+        b1 = (FRb[_u((FRO_ + 1) * BLK + j)] + o1) + P1
+        b2 = (FRb[_u((FRO_ + 2) * BLK + j)] + o2) + P2
+        return P0, P1, P2, b0, b1, b2
+    return impl
+
+
+@njit(inline="always", **_NJIT)
+def _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den):
+    """g_i = (d, r x d) / den."""
+    iv = 1.0 / den
+    Li[GG * BLK + j] = d0 * iv
+    Li[(GG + 1) * BLK + j] = d1 * iv
+    Li[(GG + 2) * BLK + j] = d2 * iv
+    Li[(GG + 3) * BLK + j] = (r1 * d2 - r2 * d1) * iv
+    Li[(GG + 4) * BLK + j] = (r2 * d0 - r0 * d2) * iv
+    Li[(GG + 5) * BLK + j] = (r0 * d1 - r1 * d0) * iv
+
+
+@njit(inline="always", **_NJIT)
+def _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, l2, ma):
+    """The leg's bodies in M_p (rod of mass mr centred at a + f d, transverse
+    inertia ir, actuator body ma): with bdot = Vb xi, qdot = J xi and K = t.bdot,
+    the rod's centre moves with (1 - f) t J + f Vb and turns with
+    d x (Vb - t J) / l^2; as d.(Vb - t J) = 0 and |d| = l,
+
+        mr |(1-f) t J + f Vb|^2 + ir |Vb - t J|^2 / l^2 + ma J^2
+          = alpha |Vb|^2 + gamma J^2 + delta 2 J K,
+
+    alpha = mr f^2 + ir / l^2, gamma = mr (1-f)^2 |t|^2 + ir |t|^2 / l^2 + ma,
+    delta = mr f (1-f) - ir / l^2.  Stores K's twist row (t, r x t)."""
+    tt = t0 * t0 + t1 * t1 + t2 * t2
+    il = ir / l2
+    g = 1.0 - f
+    Li[GAL * BLK + j] = mr * f * f + il
+    Li[GGA * BLK + j] = (mr * g * g + il) * tt + ma
+    Li[GDE * BLK + j] = mr * f * g - il
+    Li[GK * BLK + j] = t0
+    Li[(GK + 1) * BLK + j] = t1
+    Li[(GK + 2) * BLK + j] = t2
+    Li[(GK + 3) * BLK + j] = r1 * t2 - r2 * t1
+    Li[(GK + 4) * BLK + j] = r2 * t0 - r0 * t2
+    Li[(GK + 5) * BLK + j] = r0 * t1 - r1 * t0
+
+
+@njit(**_NJIT)
+def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
+    """Slider at a = A + q u, rod of length l: q = u.w -+ sqrt((u.w)^2 - |w|^2 + l^2)."""
+    A0 = L[d, i, LA]
+    A1 = L[d, i, LA + 1]
+    A2 = L[d, i, LA + 2]
+    u0 = L[d, i, LU]
+    u1 = L[d, i, LU + 1]
+    u2 = L[d, i, LU + 2]
+    Lr = L[d, i, LLR]
+    mr = L[d, i, LMROD]
+    ir = L[d, i, LIROD]
+    f = L[d, i, LFROD]
+    ma = L[d, i, LMACT]
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
+    for j in range(m):
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
+        w0 = b0 - A0
+        w1 = b1 - A1
+        w2 = b2 - A2
+        ww = w0 * w0 + w1 * w1 + w2 * w2
+        uw = u0 * w0 + u1 * w1 + u2 * w2
+        disc = Lr * Lr - ww + uw * uw
+        closes = disc >= 0.0
+        V[VOK * BLK + j] = V[VOK * BLK + j] if closes else 0.0
+        root = math.sqrt(disc if closes else 0.0)
+        qm = uw - root
+        qp = uw + root
+        am0 = A0 + qm * u0
+        am1 = A1 + qm * u1
+        am2 = A2 + qm * u2
+        ap0 = A0 + qp * u0
+        ap1 = A1 + qp * u1
+        ap2 = A2 + qp * u2
+        far = ap0 * ap0 + ap1 * ap1 + ap2 * ap2 > am0 * am0 + am1 * am1 + am2 * am2
+        plus = (br == 1) | ((br == 2) & far) | ((br == 3) & (not far))
+        q = qp if plus else qm
+        den = -root if plus else root
+        d0 = b0 - (A0 + q * u0)
+        d1 = b1 - (A1 + q * u1)
+        d2 = b2 - (A2 + q * u2)
+        _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den)
+        if dyn:
+            _rod_coefficients(Li, j, r0, r1, r2, u0, u1, u2, mr, ir, f, Lr * Lr, ma)
 
 
 @njit(inline="always", **_NJIT)
@@ -54,535 +466,719 @@ def _wrap(q):
     return q - 2.0 * math.pi * np.round(q / (2.0 * math.pi))
 
 
-@njit(inline="always", **_NJIT)
-def _frame(ptype, roles, X, jx, F, d, R, o, ang):
-    """Origin o (3), R (3, 3), angles (roll, pitch, yaw) into ang, as poses.frames."""
-    ang[0] = F[d, FFIX]
-    ang[1] = F[d, FFIX + 1]
-    ang[2] = F[d, FFIX + 2]
-    o[0] = 0.0
-    o[1] = 0.0
-    o[2] = 0.0
-    for i in range(roles.shape[0]):
-        r = roles[i]
-        if r < 3:
-            o[r] = X[jx, i]
-        else:
-            ang[r - 3] = X[jx, i]
-    if ptype == 2:
-        o[0] = F[d, FCEN]
-        o[1] = F[d, FCEN + 1]
-        o[2] = F[d, FCEN + 2]
-    if ptype == 0:
-        for i in range(3):
-            for j in range(3):
-                R[i, j] = 1.0 if i == j else 0.0
-    elif ptype == 1:
-        c = math.cos(ang[2])
-        s = math.sin(ang[2])
-        R[0, 0] = c
-        R[0, 1] = -s
-        R[0, 2] = 0.0
-        R[1, 0] = s
-        R[1, 1] = c
-        R[1, 2] = 0.0
-        R[2, 0] = 0.0
-        R[2, 1] = 0.0
-        R[2, 2] = 1.0
-    else:
-        cr = math.cos(ang[0])
-        sr = math.sin(ang[0])
-        cp = math.cos(ang[1])
-        sp = math.sin(ang[1])
-        cy = math.cos(ang[2])
-        sy = math.sin(ang[2])
-        R[0, 0] = cy * cp
-        R[0, 1] = cy * sp * sr - sy * cr
-        R[0, 2] = cy * sp * cr + sr * sy
-        R[1, 0] = sy * cp
-        R[1, 1] = sy * sp * sr + cy * cr
-        R[1, 2] = sy * sp * cr - cy * sr
-        R[2, 0] = -sp
-        R[2, 1] = cp * sr
-        R[2, 2] = cp * cr
-
-
-@njit(inline="always", **_NJIT)
-def _rate_map(ptype, conv, roles, cols, ang, S):
-    """S (6, dof): pose rates -> twist (or the selection of twist components)."""
-    dof = roles.shape[0]
-    for k in range(6):
-        for j in range(dof):
-            S[k, j] = 0.0
-    if conv == 1 or ptype < 2:
-        for j in range(dof):
-            S[cols[j], j] = 1.0
-        return
-    cp = math.cos(ang[1])
-    sp = math.sin(ang[1])
-    cy = math.cos(ang[2])
-    sy = math.sin(ang[2])
-    for j in range(dof):
-        r = roles[j]
-        if r < 3:
-            S[r, j] = 1.0
-        elif r == 3:
-            S[3, j] = cy * cp
-            S[4, j] = sy * cp
-            S[5, j] = -sp
-        elif r == 4:
-            S[3, j] = -sy
-            S[4, j] = cy
-        else:
-            S[5, j] = 1.0
-
-
-@njit(inline="always", **_NJIT)
-def _legs(kind, branch, L, d, R, o, S, sel, cols, J, geo):
-    """Inverse kinematics and J rows; geo[i] = (r 0:3, d 3:6, t 6:9, den 9, q 10,
-    chat 11:14).  Returns False if a leg does not close."""
-    n = kind.shape[0]
-    dof = S.shape[1]
-    for i in range(n):
-        P0 = L[d, i, LP]
-        P1 = L[d, i, LP + 1]
-        P2 = L[d, i, LP + 2]
-        r0 = R[0, 0] * P0 + R[0, 1] * P1 + R[0, 2] * P2
-        r1 = R[1, 0] * P0 + R[1, 1] * P1 + R[1, 2] * P2
-        r2 = R[2, 0] * P0 + R[2, 1] * P1 + R[2, 2] * P2
-        b0 = o[0] + r0
-        b1 = o[1] + r1
-        b2 = o[2] + r2
-        A0 = L[d, i, LA]
-        A1 = L[d, i, LA + 1]
-        A2 = L[d, i, LA + 2]
+@njit(**_NJIT)
+def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
+    """Crank of length L_a about k through A (tip A + L_a (cos q r0 + sin q s0)),
+    rod of length l: q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)."""
+    A0 = L[d, i, LA]
+    A1 = L[d, i, LA + 1]
+    A2 = L[d, i, LA + 2]
+    La = L[d, i, LLA]
+    Lr = L[d, i, LLR]
+    R00 = L[d, i, LR0]
+    R01 = L[d, i, LR0 + 1]
+    R02 = L[d, i, LR0 + 2]
+    S00 = L[d, i, LS0]
+    S01 = L[d, i, LS0 + 1]
+    S02 = L[d, i, LS0 + 2]
+    mr = L[d, i, LMROD]
+    ir = L[d, i, LIROD]
+    f = L[d, i, LFROD]
+    ma = L[d, i, LMACT]
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
+    for j in range(m):
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
         w0 = b0 - A0
         w1 = b1 - A1
         w2 = b2 - A2
         ww = w0 * w0 + w1 * w1 + w2 * w2
-        k = kind[i]
-        br = branch[i]
-        c0 = c1 = c2 = 0.0
-        if k == 0:
-            u0 = L[d, i, LU]
-            u1 = L[d, i, LU + 1]
-            u2 = L[d, i, LU + 2]
-            uw = u0 * w0 + u1 * w1 + u2 * w2
-            Lr = L[d, i, LLR]
-            disc = Lr * Lr - ww + uw * uw
-            if not disc >= 0.0:
-                return False
-            root = math.sqrt(disc)
-            qm = uw - root
-            qp = uw + root
-            plus = br == 1
-            if br >= 2:
-                am0 = A0 + qm * u0
-                am1 = A1 + qm * u1
-                am2 = A2 + qm * u2
-                ap0 = A0 + qp * u0
-                ap1 = A1 + qp * u1
-                ap2 = A2 + qp * u2
-                far = ap0 * ap0 + ap1 * ap1 + ap2 * ap2 > am0 * am0 + am1 * am1 + am2 * am2
-                plus = far if br == 2 else not far
-            q = qp if plus else qm
-            den = -root if plus else root
-            a0 = A0 + q * u0
-            a1 = A1 + q * u1
-            a2 = A2 + q * u2
-            t0, t1, t2 = u0, u1, u2
-            d0 = b0 - a0
-            d1 = b1 - a1
-            d2 = b2 - a2
-        elif k == 1:
-            La = L[d, i, LLA]
-            Lr = L[d, i, LLR]
-            R00 = L[d, i, LR0]
-            R01 = L[d, i, LR0 + 1]
-            R02 = L[d, i, LR0 + 2]
-            S00 = L[d, i, LS0]
-            S01 = L[d, i, LS0 + 1]
-            S02 = L[d, i, LS0 + 2]
-            Pc = w0 * R00 + w1 * R01 + w2 * R02
-            Qc = w0 * S00 + w1 * S01 + w2 * S02
-            Cc = (ww + La * La - Lr * Lr) / (2.0 * La)
-            h2 = Pc * Pc + Qc * Qc - Cc * Cc
-            if not h2 >= 0.0:
-                return False
-            h = math.sqrt(h2)
-            phi0 = math.atan2(Qc, Pc)
-            dl = math.atan2(h, Cc)
-            qp = _wrap(phi0 + dl)
-            qm = _wrap(phi0 - dl)
-            cpp = math.cos(qp)
-            spp = math.sin(qp)
-            cmm = math.cos(qm)
-            smm = math.sin(qm)
-            plus = br == 1
-            if br >= 2:
-                tp0 = A0 + La * (cpp * R00 + spp * S00)
-                tp1 = A1 + La * (cpp * R01 + spp * S01)
-                tp2 = A2 + La * (cpp * R02 + spp * S02)
-                tm0 = A0 + La * (cmm * R00 + smm * S00)
-                tm1 = A1 + La * (cmm * R01 + smm * S01)
-                tm2 = A2 + La * (cmm * R02 + smm * S02)
-                far = tp0 * tp0 + tp1 * tp1 + tp2 * tp2 > tm0 * tm0 + tm1 * tm1 + tm2 * tm2
-                plus = far if br == 2 else not far
-            q = qp if plus else qm
-            cq = cpp if plus else cmm
-            sq = spp if plus else smm
-            c0 = cq * R00 + sq * S00
-            c1 = cq * R01 + sq * S01
-            c2 = cq * R02 + sq * S02
-            den = -La * h if plus else La * h
-            a0 = A0 + La * c0
-            a1 = A1 + La * c1
-            a2 = A2 + La * c2
+        Pc = w0 * R00 + w1 * R01 + w2 * R02
+        Qc = w0 * S00 + w1 * S01 + w2 * S02
+        Cc = (ww + La * La - Lr * Lr) / (2.0 * La)
+        h2 = Pc * Pc + Qc * Qc - Cc * Cc
+        closes = h2 >= 0.0
+        V[VOK * BLK + j] = V[VOK * BLK + j] if closes else 0.0
+        h = math.sqrt(h2 if closes else 0.0)
+        phi0 = math.atan2(Qc, Pc)
+        dl = math.atan2(h, Cc)
+        qp = _wrap(phi0 + dl)
+        qm = _wrap(phi0 - dl)
+        cpp = math.cos(qp)
+        spp = math.sin(qp)
+        cmm = math.cos(qm)
+        smm = math.sin(qm)
+        tp0 = A0 + La * (cpp * R00 + spp * S00)
+        tp1 = A1 + La * (cpp * R01 + spp * S01)
+        tp2 = A2 + La * (cpp * R02 + spp * S02)
+        tm0 = A0 + La * (cmm * R00 + smm * S00)
+        tm1 = A1 + La * (cmm * R01 + smm * S01)
+        tm2 = A2 + La * (cmm * R02 + smm * S02)
+        far = tp0 * tp0 + tp1 * tp1 + tp2 * tp2 > tm0 * tm0 + tm1 * tm1 + tm2 * tm2
+        plus = (br == 1) | ((br == 2) & far) | ((br == 3) & (not far))
+        cq = cpp if plus else cmm
+        sq = spp if plus else smm
+        c0 = cq * R00 + sq * S00
+        c1 = cq * R01 + sq * S01
+        c2 = cq * R02 + sq * S02
+        den = -La * h if plus else La * h
+        d0 = b0 - (A0 + La * c0)
+        d1 = b1 - (A1 + La * c1)
+        d2 = b2 - (A2 + La * c2)
+        _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den)
+        if dyn:
             t0 = La * (-sq * R00 + cq * S00)
             t1 = La * (-sq * R01 + cq * S01)
             t2 = La * (-sq * R02 + cq * S02)
-            d0 = b0 - a0
-            d1 = b1 - a1
-            d2 = b2 - a2
-        else:
-            q = math.sqrt(ww)
-            den = q
-            t0 = w0 / q
-            t1 = w1 / q
-            t2 = w2 / q
-            d0, d1, d2 = w0, w1, w2
-        g0 = d0 / den
-        g1 = d1 / den
-        g2 = d2 / den
-        g3 = (r1 * d2 - r2 * d1) / den
-        g4 = (r2 * d0 - r0 * d2) / den
-        g5 = (r0 * d1 - r1 * d0) / den
-        if sel:
-            for j in range(dof):
-                c = cols[j]
-                J[i, j] = g0 if c == 0 else g1 if c == 1 else g2 if c == 2 else g3 if c == 3 else g4 if c == 4 else g5
-        else:
-            for j in range(dof):
-                J[i, j] = (((((g0 * S[0, j] + g1 * S[1, j]) + g2 * S[2, j]) + g3 * S[3, j]) + g4 * S[4, j])
-                           + g5 * S[5, j])
-        geo[i, 0] = r0
-        geo[i, 1] = r1
-        geo[i, 2] = r2
-        geo[i, 3] = d0
-        geo[i, 4] = d1
-        geo[i, 5] = d2
-        geo[i, 6] = t0
-        geo[i, 7] = t1
-        geo[i, 8] = t2
-        geo[i, 9] = den
-        geo[i, 10] = q
-        geo[i, 11] = c0
-        geo[i, 12] = c1
-        geo[i, 13] = c2
-    return True
+            _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, Lr * Lr, ma)
 
 
-@njit(inline="always", **_NJIT)
-def _inverse(J, Ji, W):
-    """Ji = J^-1 by Gauss-Jordan with partial pivoting (W: n x 2n scratch);
-    returns |det J| (0 if a pivot vanishes or is not finite)."""
-    n = J.shape[0]
-    for i in range(n):
-        for j in range(n):
-            W[i, j] = J[i, j]
-            W[i, n + j] = 1.0 if i == j else 0.0
-    det = 1.0
-    for c in range(n):
-        p = c
-        best = abs(W[c, c])
-        for r in range(c + 1, n):
-            if abs(W[r, c]) > best:
-                best = abs(W[r, c])
-                p = r
-        if not (best > 0.0 and best < np.inf):
-            return 0.0
-        if p != c:
-            for j in range(2 * n):
-                tmp = W[c, j]
-                W[c, j] = W[p, j]
-                W[p, j] = tmp
-        piv = W[c, c]
-        det *= piv
-        inv = 1.0 / piv
-        for j in range(2 * n):
-            W[c, j] *= inv
-        for r in range(n):
-            if r != c:
-                f = W[r, c]
-                if f != 0.0:
-                    for j in range(2 * n):
-                        W[r, j] -= f * W[c, j]
-    for i in range(n):
-        for j in range(n):
-            Ji[i, j] = W[i, n + j]
-    return abs(det)
+@njit(**_NJIT)
+def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn, cspec):
+    """Strut of actuated length q = |w|.  Bodies: the lower part (mass m1,
+    centre e1 from A) and the upper part (m2, centre e2 from b), inertia I12
+    between them, all turning with n x bdot / q; with p = (bdot - n (n.bdot)) / q
+    (so |n x bdot|^2 / q^2 = |p|^2, bdot.p = q |p|^2) their energy is
 
+        m1 e1^2 |p|^2 + m2 |bdot - e2 p|^2 + I12 |p|^2 = alpha |bdot|^2 + gamma (n.bdot)^2,
 
-@njit(inline="always", **_NJIT)
-def _jacobi_sv(B, s):
-    """Singular values of the square B (destroyed) into s, by one-sided Jacobi
-    (Hestenes) rotations of its columns; returns (sigma_max, sigma_min)."""
-    n = B.shape[0]
-    for sweep in range(60):
-        rotated = False
-        for p in range(n - 1):
-            for q in range(p + 1, n):
-                al = 0.0
-                be = 0.0
-                ga = 0.0
-                for i in range(n):
-                    x = B[i, p]
-                    y = B[i, q]
-                    al += x * x
-                    be += y * y
-                    ga += x * y
-                if ga == 0.0 or abs(ga) <= 1e-15 * math.sqrt(al * be):
-                    continue
-                rotated = True
-                ze = (be - al) / (2.0 * ga)
-                t = (1.0 if ze >= 0 else -1.0) / (abs(ze) + math.sqrt(1.0 + ze * ze))
-                c = 1.0 / math.sqrt(1.0 + t * t)
-                sn = c * t
-                for i in range(n):
-                    x = B[i, p]
-                    y = B[i, q]
-                    B[i, p] = c * x - sn * y
-                    B[i, q] = sn * x + c * y
-        if not rotated:
-            break
-    hi = 0.0
-    lo = np.inf
-    for j in range(n):
-        v = 0.0
-        for i in range(n):
-            v += B[i, j] * B[i, j]
-        v = math.sqrt(v)
-        s[j] = v
-        hi = max(hi, v)
-        lo = min(lo, v)
-    return hi, lo
-
-
-@njit(inline="always", **_NJIT)
-def _addq(M, m, V, dof):
-    """M += m V^T V for V (3, dof)."""
-    if m == 0.0:
-        return
-    for a in range(dof):
-        for b in range(a, dof):
-            v = V[0, a] * V[0, b] + V[1, a] * V[1, b] + V[2, a] * V[2, b]
-            M[a, b] += m * v
-
-
-@njit(inline="always", **_NJIT)
-def _mass(kind, L, F, d, R, S, translation, J, geo, M, V1, V2, V3, Vb):
-    """Pose-space mass matrix (upper triangle filled, then mirrored) from the bodies."""
-    n = kind.shape[0]
-    dof = S.shape[1]
-    for a in range(dof):
-        for b in range(dof):
-            M[a, b] = 0.0
-    for i in range(n):
-        r0, r1, r2 = geo[i, 0], geo[i, 1], geo[i, 2]
-        d0, d1, d2 = geo[i, 3], geo[i, 4], geo[i, 5]
-        t0, t1, t2 = geo[i, 6], geo[i, 7], geo[i, 8]
-        # Vb = [I, -skew(r)] S: column j = S_v,j + S_w,j x r
-        if translation:
-            for j in range(dof):
-                Vb[0, j] = S[0, j]
-                Vb[1, j] = S[1, j]
-                Vb[2, j] = S[2, j]
-        else:
-            for j in range(dof):
-                w0, w1, w2 = S[3, j], S[4, j], S[5, j]
-                Vb[0, j] = S[0, j] + (w1 * r2 - w2 * r1)
-                Vb[1, j] = S[1, j] + (w2 * r0 - w0 * r2)
-                Vb[2, j] = S[2, j] + (w0 * r1 - w1 * r0)
-        k = kind[i]
-        if k != 2:
-            f = L[d, i, LFROD]
-            l2 = L[d, i, LLR] * L[d, i, LLR]
-            for j in range(dof):
-                Jr = J[i, j]
-                x0 = Vb[0, j] - t0 * Jr
-                x1 = Vb[1, j] - t1 * Jr
-                x2 = Vb[2, j] - t2 * Jr
-                V1[0, j] = (1.0 - f) * (t0 * Jr) + f * Vb[0, j]
-                V1[1, j] = (1.0 - f) * (t1 * Jr) + f * Vb[1, j]
-                V1[2, j] = (1.0 - f) * (t2 * Jr) + f * Vb[2, j]
-                V2[0, j] = (d1 * x2 - d2 * x1) / l2
-                V2[1, j] = (d2 * x0 - d0 * x2) / l2
-                V2[2, j] = (d0 * x1 - d1 * x0) / l2
-            _addq(M, L[d, i, LMROD], V1, dof)
-            _addq(M, L[d, i, LIROD], V2, dof)
-            ma = L[d, i, LMACT]
-            if ma != 0.0:
-                for a in range(dof):
-                    for b in range(a, dof):
-                        M[a, b] += ma * (J[i, a] * J[i, b])
-        else:
-            q = geo[i, 10]
-            n0, n1, n2 = d0 / q, d1 / q, d2 / q
-            e1 = L[d, i, LE1]
-            e2 = L[d, i, LE2]
-            for j in range(dof):
-                nv = n0 * Vb[0, j] + n1 * Vb[1, j] + n2 * Vb[2, j]
-                p0 = (Vb[0, j] - n0 * nv) / q
-                p1 = (Vb[1, j] - n1 * nv) / q
-                p2 = (Vb[2, j] - n2 * nv) / q
-                V1[0, j] = e1 * p0
-                V1[1, j] = e1 * p1
-                V1[2, j] = e1 * p2
-                V2[0, j] = Vb[0, j] - e2 * p0
-                V2[1, j] = Vb[1, j] - e2 * p1
-                V2[2, j] = Vb[2, j] - e2 * p2
-                V3[0, j] = (n1 * Vb[2, j] - n2 * Vb[1, j]) / q
-                V3[1, j] = (n2 * Vb[0, j] - n0 * Vb[2, j]) / q
-                V3[2, j] = (n0 * Vb[1, j] - n1 * Vb[0, j]) / q
-            _addq(M, L[d, i, LM1], V1, dof)
-            _addq(M, L[d, i, LM2], V2, dof)
-            _addq(M, L[d, i, LI12], V3, dof)
-    # platform: centre of mass rc = R c, inertia R I R^T
-    c0, c1, c2 = F[d, FCOM], F[d, FCOM + 1], F[d, FCOM + 2]
-    rc0 = R[0, 0] * c0 + R[0, 1] * c1 + R[0, 2] * c2
-    rc1 = R[1, 0] * c0 + R[1, 1] * c1 + R[1, 2] * c2
-    rc2 = R[2, 0] * c0 + R[2, 1] * c1 + R[2, 2] * c2
-    for j in range(dof):
-        w0, w1, w2 = S[3, j], S[4, j], S[5, j]
-        Vb[0, j] = S[0, j] + (w1 * rc2 - w2 * rc1)
-        Vb[1, j] = S[1, j] + (w2 * rc0 - w0 * rc2)
-        Vb[2, j] = S[2, j] + (w0 * rc1 - w1 * rc0)
-    _addq(M, F[d, FMP], Vb, dof)
-    if translation:
-        for a in range(dof):
-            for b in range(a):
-                M[a, b] = M[b, a]
-        return
-    # R I R^T applied to the angular columns
-    for j in range(dof):
-        for k in range(3):
-            V1[k, j] = R[0, k] * S[3, j] + R[1, k] * S[4, j] + R[2, k] * S[5, j]   # R^T w
-    for a in range(dof):
-        for b in range(a, dof):
-            v = 0.0
-            for k in range(3):
-                for m in range(3):
-                    v += V1[k, a] * F[d, FIP + 3 * k + m] * V1[m, b]
-            M[a, b] += v
-    for a in range(dof):
-        for b in range(a):
-            M[a, b] = M[b, a]
-
-
-@njit(inline="always", **_NJIT)
-def _point(ptype, conv, roles, cols, kind, branch, L, F, d, X, jx, want, dyn, needs_sv, want_cols, m2, m1, vals):
-    """Local values of design d at pose X[jx] into vals (NVAL); returns the reach code.
-    m2, m1: the scratch matrices and vectors (see _chunk)."""
-    R, S, J, Ji, W, B, geo, M, Mi, V1, V2, V3, Vb = m2
-    o, ang, s = m1
-    _frame(ptype, roles, X, jx, F, d, R, o, ang)
-    _rate_map(ptype, conv, roles, cols, ang, S)
-    sel = conv == 1 or ptype < 2
-    if not _legs(kind, branch, L, d, R, o, S, sel, cols, J, geo):
-        return 0
-    n = J.shape[0]
-    det = _inverse(J, Ji, W)
-    if not det > 0.0:
-        return 2
-    f2 = 0.0
-    i2 = 0.0
-    for i in range(n):
-        for j in range(n):
-            f2 += J[i, j] * J[i, j]
-            i2 += Ji[i, j] * Ji[i, j]
-    cf = math.sqrt(f2 * i2)
-    if not cf < HARD:
-        return 2
-    vals[FRO] = cf
-    vals[IFRO] = 1.0 / cf
-    vals[DET] = det
-    if want_cols:
-        for a in range(n):
-            v = 0.0
-            for i in range(n):
-                v += J[i, a] * J[i, a]
-            vals[COL0 + a] = v
-    if needs_sv:
-        for i in range(n):
-            for j in range(n):
-                B[i, j] = J[i, j]
-        hi, lo = _jacobi_sv(B, s)
-        vals[SMIN] = lo
-        vals[SMIN2] = lo * lo
-        vals[TWO] = hi / lo
+    c = m1 e1^2 + I12 + m2 (e2^2 - 2 e2 q), alpha = m2 + c / q^2, gamma = -c / q^2
+    (n.bdot = J xi: the strut's row)."""
+    A0 = L[d, i, LA]
+    A1 = L[d, i, LA + 1]
+    A2 = L[d, i, LA + 2]
+    m1 = L[d, i, LM1]
+    e1 = L[d, i, LE1]
+    m2 = L[d, i, LM2]
+    e2 = L[d, i, LE2]
+    i12 = L[d, i, LI12]
+    c_ = m1 * e1 * e1 + i12 + m2 * e2 * e2
+    P0 = L[d, i, LP]
+    P1 = L[d, i, LP + 1]
+    P2 = L[d, i, LP + 2]
+    o0 = F[d, FCEN] if ptype == 2 else 0.0
+    o1 = F[d, FCEN + 1] if ptype == 2 else 0.0
+    o2 = F[d, FCEN + 2] if ptype == 2 else 0.0
+    for j in range(m):
+        r0, r1, r2, b0, b1, b2 = _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec)
+        Li[GR * BLK + j] = r0
+        Li[(GR + 1) * BLK + j] = r1
+        Li[(GR + 2) * BLK + j] = r2
+        w0 = b0 - A0
+        w1 = b1 - A1
+        w2 = b2 - A2
+        q = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        iq = 1.0 / q
+        Li[GG * BLK + j] = w0 * iq
+        Li[(GG + 1) * BLK + j] = w1 * iq
+        Li[(GG + 2) * BLK + j] = w2 * iq
+        Li[(GG + 3) * BLK + j] = (r1 * w2 - r2 * w1) * iq
+        Li[(GG + 4) * BLK + j] = (r2 * w0 - r0 * w2) * iq
+        Li[(GG + 5) * BLK + j] = (r0 * w1 - r1 * w0) * iq
+        if dyn:
+            c = c_ - 2.0 * m2 * e2 * q
+            iq = c * (iq * iq)
+            Li[GAL * BLK + j] = m2 + iq
+            Li[GGA * BLK + j] = -iq
     if dyn:
-        _mass(kind, L, F, d, R, S, ptype == 0, J, geo, M, V1, V2, V3, Vb)
-        for a in range(n):
-            for b in range(n):
-                v = 0.0
-                for c in range(n):
-                    v += Ji[c, a] * M[c, b]
-                Mi[a, b] = v
-        hi, lo = _jacobi_sv(Mi, s)
-        vals[DYN] = hi
+        # no rod: delta = 0 and K = 0 (read only where another leg has a rod)
+        for k in range(7):
+            for j in range(m):
+                Li[(GDE if k == 6 else GK + k) * BLK + j] = 0.0
+
+
+@njit(**_NJIT)
+def _pose_rows(Lg, src, ct, FRb, m, J, nt):
+    """J[i, c] = (twist row src of leg i) . (column c of S)."""
+    n = len(nt)
+    for i in range(n):
+        Li = Lg[i]
+        for c in range(n):
+            k = ct[c]
+            o = (i * n + c) * BLK
+            if k < 6:
+                for j in range(m):
+                    J[o + j] = Li[(src + k) * BLK + j]
+            elif k == CT_ROLL:
+                for j in range(m):
+                    J[o + j] = ((Li[(src + 3) * BLK + j] * FRb[_u(FRE * BLK + j)]
+                                 + Li[(src + 4) * BLK + j] * FRb[_u((FRE + 1) * BLK + j)])
+                                + Li[(src + 5) * BLK + j] * FRb[_u((FRE + 2) * BLK + j)])
+            else:
+                for j in range(m):
+                    J[o + j] = (Li[(src + 3) * BLK + j] * FRb[_u((FRE + 3) * BLK + j)]
+                                + Li[(src + 4) * BLK + j] * FRb[_u((FRE + 4) * BLK + j)])
+
+
+# ---------------------------------------------------------------------- mass matrix
+@njit(**_NJIT)
+def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
+    """The rigid-body matrix sum_b m_b [I, -[r_b]x; [r_b]x, |r_b|^2 I - r_b r_b^T]
+    of the platform (mass at R c) and the legs' shares alpha_i at r_i, plus the
+    platform's R I_p R^T (rot: the pose has angles), as its ten numbers: rows
+    BA (the mass), BS..BS+2 (the first moment s: the block -[s]x), BW..BW+5
+    (the angular block: 00, 11, 22, 01, 02, 12).  Translation: the mass only."""
+    n = len(nt)
+    mp = F[d, FMP]
+    if ptype == 0:
+        for j in range(m):
+            a = mp
+            for i in range(n):
+                a += Lg[i, GAL * BLK + j]
+            B[BA * BLK + j] = a
+        return
+    k0 = F[d, FCOM]
+    k1 = F[d, FCOM + 1]
+    k2 = F[d, FCOM + 2]
+    I00 = F[d, FIP]
+    I01 = F[d, FIP + 1]
+    I02 = F[d, FIP + 2]
+    I11 = F[d, FIP + 4]
+    I12 = F[d, FIP + 5]
+    I22 = F[d, FIP + 8]
+    for j in range(m):
+        R00 = FRb[_u(FRR * BLK + j)]
+        R01 = FRb[_u((FRR + 1) * BLK + j)]
+        R02 = FRb[_u((FRR + 2) * BLK + j)]
+        R10 = FRb[_u((FRR + 3) * BLK + j)]
+        R11 = FRb[_u((FRR + 4) * BLK + j)]
+        R12 = FRb[_u((FRR + 5) * BLK + j)]
+        R20 = FRb[_u((FRR + 6) * BLK + j)]
+        R21 = FRb[_u((FRR + 7) * BLK + j)]
+        R22 = FRb[_u((FRR + 8) * BLK + j)]
+        c0 = R00 * k0 + R01 * k1 + R02 * k2
+        c1 = R10 * k0 + R11 * k1 + R12 * k2
+        c2 = R20 * k0 + R21 * k1 + R22 * k2
+        a = mp
+        s0 = mp * c0
+        s1 = mp * c1
+        s2 = mp * c2
+        q00 = mp * (c0 * c0)
+        q11 = mp * (c1 * c1)
+        q22 = mp * (c2 * c2)
+        q01 = mp * (c0 * c1)
+        q02 = mp * (c0 * c2)
+        q12 = mp * (c1 * c2)
+        for i in range(n):
+            al = Lg[i, GAL * BLK + j]
+            r0 = Lg[i, GR * BLK + j]
+            r1 = Lg[i, (GR + 1) * BLK + j]
+            r2 = Lg[i, (GR + 2) * BLK + j]
+            a += al
+            s0 += al * r0
+            s1 += al * r1
+            s2 += al * r2
+            q00 += al * (r0 * r0)
+            q11 += al * (r1 * r1)
+            q22 += al * (r2 * r2)
+            q01 += al * (r0 * r1)
+            q02 += al * (r0 * r2)
+            q12 += al * (r1 * r2)
+        tr = q00 + q11 + q22
+        w00 = tr - q00
+        w11 = tr - q11
+        w22 = tr - q22
+        w01 = -q01
+        w02 = -q02
+        w12 = -q12
+        if rot:
+            # R I_p R^T
+            x00 = R00 * I00 + R01 * I01 + R02 * I02
+            x01 = R00 * I01 + R01 * I11 + R02 * I12
+            x02 = R00 * I02 + R01 * I12 + R02 * I22
+            x10 = R10 * I00 + R11 * I01 + R12 * I02
+            x11 = R10 * I01 + R11 * I11 + R12 * I12
+            x12 = R10 * I02 + R11 * I12 + R12 * I22
+            x20 = R20 * I00 + R21 * I01 + R22 * I02
+            x21 = R20 * I01 + R21 * I11 + R22 * I12
+            x22 = R20 * I02 + R21 * I12 + R22 * I22
+            w00 += x00 * R00 + x01 * R01 + x02 * R02
+            w11 += x10 * R10 + x11 * R11 + x12 * R12
+            w22 += x20 * R20 + x21 * R21 + x22 * R22
+            w01 += x00 * R10 + x01 * R11 + x02 * R12
+            w02 += x00 * R20 + x01 * R21 + x02 * R22
+            w12 += x10 * R20 + x11 * R21 + x12 * R22
+        B[BA * BLK + j] = a
+        B[BS * BLK + j] = s0
+        B[(BS + 1) * BLK + j] = s1
+        B[(BS + 2) * BLK + j] = s2
+        B[BW * BLK + j] = w00
+        B[(BW + 1) * BLK + j] = w11
+        B[(BW + 2) * BLK + j] = w22
+        B[(BW + 3) * BLK + j] = w01
+        B[(BW + 4) * BLK + j] = w02
+        B[(BW + 5) * BLK + j] = w12
+
+
+# ---------------------------------------------------------------------- generated fixed-size code
+# The routines whose loops over matrix indices would otherwise run with
+# run-time bounds (masked) are generated as straight-line code for the size n
+# (the length of the tuple nt) when numba first types a call: one loop over
+# the block's points, every matrix entry a local variable.  Each is an
+# @overload of a stub; the code is compiled into (and cached with) the kernel
+# that calls it, and this file's source is the generator, so editing it
+# invalidates the cache as for any other kernel code.
+_GEN_NAMES = {"math": math, "np": np, "_u": _u, "BLK": BLK, "TAU": TAU,
+              "VDET": VDET, "VI2": VI2, "VBETA": VBETA, "VV0": VV0, "VMASK": VMASK}
+
+
+def _interleave(lines):
+    """The point loop's body (lines after the loop header, for the point j)
+    for two points at once, j and j2 (the second half of the block): the two
+    copies are independent, so the processor overlaps their dependency chains
+    (sqrt, division, the recurrences), which one copy leaves waiting."""
+    i = next(k for k, l in enumerate(lines) if l.startswith("    for j in range(m):"))
+    head, rest = lines[:i], lines[i + 1:]
+    k = next((k for k, l in enumerate(rest) if not l.startswith("        ")), len(rest))
+    body, tail = rest[:k], rest[k:]
+    names = {"j"}
+    for l in body:
+        mt = re.match(r"\s*(\w+)\s*(=|\+=|-=|\*=)", l)
+        if mt:
+            names.add(mt.group(1))
+    pat = re.compile(r"\b(" + "|".join(sorted(names, key=len, reverse=True)) + r")\b")
+    second = [pat.sub(lambda mo: mo.group(1) + "_b" if mo.group(1) != "j" else "j2", l) for l in body]
+    # the distance between the two points is a constant (half the block), so
+    # that LLVM sees the copies do not overlap; the whole block is computed
+    # (columns from m on are scratch, never read)
+    loop = [f"    for j in range({BLK // 2}):", f"        j2 = j + {BLK // 2}"]
+    return head + loop + [x for pair in zip(body, second) for x in pair] + tail
+
+
+def _compile(lines, extra=None):
+    """The function ``impl`` defined by the source lines (generated code)."""
+    ns = dict(_GEN_NAMES)
+    ns.update(extra or {})
+    exec(compile("\n".join(lines) + "\n", "<optdesign described kernel (generated)>", "exec"), ns)
+    return ns["impl"]
+
+
+def _rows(name, n, lower_only=False):
+    """Load statements of the n x n matrix in the rows of the array ``name`` into x_r_c."""
+    return [f"        {name.lower()}{r}_{c} = {name}[_u({(r * n + c)} * BLK + j)]"
+            for r in range(n) for c in range(n) if not (lower_only and c > r)]
+
+
+def _gen_qr_inverse(n):
+    """R of the Householder QR of A, then U = R^-1 (upper triangle stored), |det A| = prod |R_kk|
+    and ||U||_F^2 into V's rows VDET, VI2 (n >= 4)."""
+    L = ["def impl(A, U, V, nt, m):", "    for j in range(m):"]
+    L += _rows("A", n)
+    L.append("        dt = 1.0")
+    for k in range(n):
+        tail = " + ".join(f"a{i}_{k} * a{i}_{k}" for i in range(k + 1, n)) or "0.0"
+        L += [f"        s = {tail}", f"        x0 = a{k}_{k}", "        nr = x0 * x0 + s", "        r = math.sqrt(nr)",
+              "        al = -r if x0 >= 0.0 else r", "        den = nr - al * x0",
+              "        beta = 1.0 / den if den > 0.0 else 0.0", "        v0 = x0 - al", f"        a{k}_{k} = al",
+              "        dt *= r"]
+        for c in range(k + 1, n):
+            dot = "".join(f" + a{i}_{k} * a{i}_{c}" for i in range(k + 1, n))
+            L.append(f"        s = (v0 * a{k}_{c}{dot}) * beta")
+            L.append(f"        a{k}_{c} -= s * v0")
+            L += [f"        a{i}_{c} -= s * a{i}_{k}" for i in range(k + 1, n)]
+    # U = R^-1, column by column from the diagonal up
+    for k in range(n):
+        L.append(f"        u{k}_{k} = 1.0 / a{k}_{k}")
+    for c in range(n):
+        for r in range(c - 1, -1, -1):
+            terms = " + ".join(f"a{r}_{k} * u{k}_{c}" for k in range(r + 1, c + 1))
+            L.append(f"        u{r}_{c} = -({terms}) * u{r}_{r}")
+    sq = " + ".join(f"u{r}_{c} * u{r}_{c}" for r in range(n) for c in range(r, n))
+    L += [f"        V[_u(VDET * BLK + j)] = dt", f"        V[_u(VI2 * BLK + j)] = {sq}"]
+    L += [f"        U[_u({r * n + c} * BLK + j)] = u{r}_{c}" for r in range(n) for c in range(r, n)]
+    return _compile(_interleave(L))
+
+
+def _gen_gram(n, mode):
+    """Statements g_a_b (a <= b) of the Gram matrix of x: X^T X (cols), X X^T (rows)
+    or U U^T for the upper triangular U (urows)."""
+    L = []
+    for a in range(n):
+        for b in range(a, n):
+            if mode == "cols":
+                t = " + ".join(f"x{k}_{a} * x{k}_{b}" for k in range(n))
+            elif mode == "rows":
+                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(n))
+            else:
+                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(b, n))
+            L.append(f"        g{a}_{b} = {t}")
+    return L
+
+
+def _sym(a, b):
+    return f"g{min(a, b)}_{max(a, b)}"
+
+
+def _gen_tridiag_lmax(n, iters):
+    """Straight-line statements: Householder tridiagonalization of the symmetric
+    g (upper triangle), the scaled tridiagonal t0..t(n-1), c0..c(n-2)
+    (squared off-diagonal), iters quadratic-model steps from an upper bound
+    (Gershgorin, Frobenius, and mean + sqrt(n - 1) standard deviation of the
+    eigenvalues: Wolkowicz-Styan), the Sturm check."""
+    L = []
+    for k in range(n - 2):
+        rest = " + ".join(f"{_sym(i, k)} * {_sym(i, k)}" for i in range(k + 2, n)) or "0.0"
+        L += [f"        s = {rest}", f"        x1 = {_sym(k + 1, k)}", "        nr = x1 * x1 + s",
+              "        r = math.sqrt(nr)", "        al = -r if x1 >= 0.0 else r", "        den = nr - al * x1",
+              "        beta = 1.0 / den if den > 0.0 else 0.0", f"        e{k} = al", f"        v{k + 1} = x1 - al"]
+        L += [f"        v{i} = {_sym(i, k)}" for i in range(k + 2, n)]
+        for r in range(k + 1, n):
+            t = " + ".join(f"{_sym(r, c)} * v{c}" for c in range(k + 1, n))
+            L.append(f"        p{r} = beta * ({t})")
+        t = " + ".join(f"v{r} * p{r}" for r in range(k + 1, n))
+        L.append(f"        h = 0.5 * beta * ({t})")
+        L += [f"        w{r} = p{r} - h * v{r}" for r in range(k + 1, n)]
+        for r in range(k + 1, n):
+            for c in range(k + 1, r + 1):
+                L.append(f"        {_sym(r, c)} = {_sym(r, c)} - (v{r} * w{c} + w{r} * v{c})")
+    L += [f"        t{k} = {_sym(k, k)}" for k in range(n)]
+    L.append(f"        e{n - 2} = {_sym(n - 1, n - 2)}")
+    # upper bound: min(Gershgorin, Frobenius); scale to it
+    gs = []
+    for k in range(n):
+        t = f"t{k}" + (f" + abs(e{k - 1})" if k > 0 else "") + (f" + abs(e{k})" if k < n - 1 else "")
+        gs.append(t)
+    L.append("        gb = " + gs[0])
+    L += [f"        gb = max(gb, {t})" for t in gs[1:]]
+    L.append("        fr = " + " + ".join([f"t{k} * t{k}" for k in range(n)] + [f"2.0 * (e{k} * e{k})" for k in range(n - 1)]))
+    L.append("        mu = (" + " + ".join(f"t{k}" for k in range(n)) + f") * {1.0 / n!r}")
+    L.append(f"        sd2 = fr * {1.0 / n!r} - mu * mu")
+    L += [f"        ws = mu + math.sqrt((sd2 if sd2 > 0.0 else 0.0) * {float(n - 1)!r})",
+          "        x0 = min(min(gb, math.sqrt(fr)), ws)", "        sc = x0 if x0 > 0.0 else 0.0",
+          "        s = 1.0 / x0 if x0 > 0.0 else 0.0"]
+    L += [f"        t{k} = t{k} * s" for k in range(n)]
+    L += [f"        c{k} = (e{k} * s) * (e{k} * s)" for k in range(n - 1)]
+    L.append("        x = 1.0")
+    for _ in range(iters):
+        L += ["        f0 = 1.0", "        f1 = x - t0", "        d0 = 0.0", "        d1 = 1.0", "        h0 = 0.0",
+              "        h1 = 0.0"]
+        for k in range(1, n):
+            L += [f"        z = x - t{k}", f"        f2 = z * f1 - c{k - 1} * f0",
+                  f"        d2 = f1 + z * d1 - c{k - 1} * d0", f"        h2 = 2.0 * d1 + z * h1 - c{k - 1} * h0",
+                  "        f0 = f1", "        f1 = f2", "        d0 = d1", "        d1 = d2", "        h0 = h1",
+                  "        h1 = h2"]
+        # larger root of f + f' h + f'' h^2 / 2: h = -2 f / (f' + sqrt(f'^2 - 2 f f''))
+        L += ["        disc = d1 * d1 - 2.0 * f1 * h1", "        den = d1 + math.sqrt(disc if disc > 0.0 else 0.0)",
+              "        x = x + (-2.0 * f1 / den if den != 0.0 else 0.0)"]
+    for tag, y in (("hi", "x * (1.0 + TAU)"), ("lo", "x * (1.0 - TAU)")):
+        L += [f"        y = {y}", "        q0 = 1.0", "        q1 = t0 - y", f"        n{tag} = 1 if q1 < 0.0 else 0"]
+        for k in range(1, n):
+            L += [f"        q2 = (t{k} - y) * q1 - c{k - 1} * q0",
+                  f"        n{tag} += 1 if (q2 < 0.0) != (q1 < 0.0) else 0", "        q0 = q1", "        q1 = q2"]
+    L.append(f"        good = (nhi == {n}) & (nlo < {n})")
+    return L
+
+
+def _gen_lmax(n, mode, iters=NEWTON):
+    """lambda_max of the Gram matrix (mode: cols, rows, urows) of X's n x n matrix
+    into out; for n >= 4 the scaled tridiagonal into T and the points to bisect
+    (not certified, V's VMASK nonzero) flagged in V's row VV0, then bisected."""
+    L = ["def impl(X, out, T, V, nt, m):", "    for j in range(m):"]
+    L += _rows("X", n) if mode != "urows" else [f"        x{r}_{c} = X[_u({r * n + c} * BLK + j)]"
+                                                  for r in range(n) for c in range(r, n)]
+    L += _gen_gram(n, mode)
+    if n == 1:
+        L.append("        out[j] = g0_0")
+    elif n == 2:
+        L += ["        hh = 0.5 * (g0_0 - g1_1)", "        out[j] = 0.5 * (g0_0 + g1_1) + math.sqrt(hh * hh + g0_1 * g0_1)"]
+    elif n == 3:
+        L.append("        out[j] = _lmax3_point(g0_0, g1_1, g2_2, g0_1, g0_2, g1_2)")
+    else:
+        L += _gen_tridiag_lmax(n, iters)
+        L += ["        out[j] = x * sc", "        V[_u(VBETA * BLK + j)] = sc",
+              "        V[_u(VV0 * BLK + j)] = 0.0 if good or V[_u(VMASK * BLK + j)] == 0.0 or not sc > 0.0 else 1.0"]
+        L += [f"        T[_u({k} * BLK + j)] = t{k}" for k in range(n)]
+        L += [f"        T[_u({n + k} * BLK + j)] = c{k}" for k in range(n - 1)]
+        L = _interleave(L)
+        L.append("    _bisect_flagged(T, out, V, nt, m)")
+    return _compile(L, {"_lmax3_point": _lmax3_point, "_bisect_flagged": _bisect_flagged})
+
+
+def _inverse(A, U, V, nt, m):
+    """U = A^-1 (n <= 3) or R^-1 of A = QR (n >= 4: upper triangular, with the
+    singular values of A^-1; Q is never formed); V rows VDET <- |det A|,
+    VI2 <- ||A^-1||_F^2."""
+
+
+@overload(_inverse, jit_options=_GEN_OPTIONS)
+def _ov_inverse(A, U, V, nt, m):
+    if nt.count <= 3:
+        def impl(A, U, V, nt, m):
+            _inverse_small(A, U, V, nt, m)
+        return impl
+    return _gen_qr_inverse(nt.count)
+
+
+def _lmax_cols(X, out, T, V, nt, m):
+    """out[j] = lambda_max(X^T X) (X n x n)."""
+
+
+def _lmax_rows(X, out, T, V, nt, m):
+    """out[j] = lambda_max(X X^T) for X from _inverse (upper triangular for n >= 4)."""
+
+
+@overload(_lmax_cols, jit_options=_GEN_OPTIONS)
+def _ov_lmax_cols(X, out, T, V, nt, m):
+    return _gen_lmax(nt.count, "cols")
+
+
+@overload(_lmax_rows, jit_options=_GEN_OPTIONS)
+def _ov_lmax_rows(X, out, T, V, nt, m):
+    return _gen_lmax(nt.count, "urows" if nt.count >= 4 else "rows")
+
+
+def _lmax_dyn(X, out, T, V, nt, m):
+    """out[j] = lambda_max(X^T X) for the dynamic index's W (NEWTON_DYN steps)."""
+
+
+@overload(_lmax_dyn, jit_options=_GEN_OPTIONS)
+def _ov_lmax_dyn(X, out, T, V, nt, m):
+    return _gen_lmax(nt.count, "cols", NEWTON_DYN)
+
+
+def _spec_of(cspec):
+    """(pose-column kinds, rods, rotations) from the type of cspec: an array
+    whose record dtype's field names say them (k<i>_<kind> per pose column,
+    rods_<0|1>, rot_<0|1>), so that they are compile-time constants (see
+    column_spec)."""
+    names = list(cspec.dtype.fields.keys())
+    kinds = [int(nm.split("_")[1]) for nm in names if nm.startswith("k")]
+    return kinds, "rods_1" in names, "rot_1" in names
+
+
+def column_spec(ct, rods, rot):
+    """The array (1,) whose record dtype encodes the pose-column kinds ct,
+    whether any leg has a rod and whether the pose has angles (for _spec_of)."""
+    fields = ([(f"k{i}_{int(k)}", "u1") for i, k in enumerate(ct)]
+              + [(f"rods_{int(bool(rods))}", "u1"), (f"rot_{int(bool(rot))}", "u1")])
+    return np.zeros(1, dtype=np.dtype(fields))
+
+
+def _column_vector(kind):
+    """The pose column s (twist component -> coefficient expression, None for 1)."""
+    if kind < 6:
+        return {kind: None}
+    if kind == CT_ROLL:
+        return {3: "e0", 4: "e1", 5: "e2"}
+    return {3: "e3", 4: "e4"}
+
+
+def _times(coef, expr):
+    return expr if coef is None else f"{coef} * {expr}"
+
+
+def _b_entry(k, l):
+    """Entry (k, l), k <= l, of the rigid-body matrix from its ten rows (_rigid):
+    a I, -[s]x and the angular block."""
+    if l < 3:
+        return f"B[_u({BA} * BLK + j)]" if k == l else "0.0"
+    if k < 3:
+        # -[s]x = [[0, s2, -s1], [-s2, 0, s0], [s1, -s0, 0]]
+        c = l - 3
+        sign, comp = {(0, 1): (1, 2), (0, 2): (-1, 1), (1, 0): (-1, 2), (1, 2): (1, 0), (2, 0): (1, 1),
+                      (2, 1): (-1, 0)}.get((k, c), (0, 0))
+        if not sign:
+            return "0.0"
+        return ("" if sign > 0 else "-") + f"B[_u({BS + comp} * BLK + j)]"
+    row = {(3, 3): 0, (4, 4): 1, (5, 5): 2, (3, 4): 3, (3, 5): 4, (4, 5): 5}[(k, l)]
+    return f"B[_u({BW + row} * BLK + j)]"
+
+
+def _gen_dyn(n, kinds, rods, mass_only=False):
+    """W = U^T M_p without M_p stored: M_p = S^T B S + sum_i [gamma_i J_i^T J_i +
+    delta_i (J_i^T K_i + K_i^T J_i)] written as s_a.(B s_b) + sum_i (J_ia P_ib +
+    K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib; the
+    pose columns s of the given kinds (a selection or the Euler columns) are
+    expanded in the code, so only the entries of B they meet are read.
+    mass_only: store M_p itself (full) into W instead (U is not read)."""
+    upper = n >= 4
+    L = ["def impl(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):", "    for j in range(m):"]
+    if any(k >= 6 for k in kinds):
+        L += [f"        e{k} = FRb[_u({FRE + k} * BLK + j)]" for k in range(5)]
+    svec = [_column_vector(k) for k in kinds]
+    need = set()
+    for b in range(n):
+        for l in svec[b]:
+            for a in range(n):
+                for k in svec[a]:
+                    need.add((min(k, l), max(k, l)))
+    L += [f"        b{k}_{l} = {_b_entry(k, l)}" for k, l in sorted(need)]
+    # T_b[k] = (B s_b)_k for the components k the columns meet
+    comps = sorted({k for sv in svec for k in sv})
+    for b in range(n):
+        for k in comps:
+            t = " + ".join(_times(cf, f"b{min(k, l)}_{max(k, l)}") for l, cf in svec[b].items())
+            L.append(f"        tb{b}_{k} = {t}")
+    L += _rows("J", n)
+    if rods:
+        L += [f"        kp{r}_{c} = Kp[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n)]
+    for i in range(n):
+        L.append(f"        ga{i} = Lg[{i}, {GGA} * BLK + j]")
+        if rods:
+            L.append(f"        de{i} = Lg[{i}, {GDE} * BLK + j]")
+        for b in range(n):
+            if rods:
+                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b} + de{i} * kp{i}_{b}")
+                L.append(f"        q{i}_{b} = de{i} * j{i}_{b}")
+            else:
+                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b}")
+    for a in range(n):
+        for b in range(a, n):
+            sbs = " + ".join(_times(cf, f"tb{b}_{k}") for k, cf in svec[a].items())
+            legs = " + ".join(f"j{i}_{a} * p{i}_{b}" + (f" + kp{i}_{a} * q{i}_{b}" if rods else "") for i in range(n))
+            L.append(f"        m{a}_{b} = ({sbs}) + ({legs})")
+    if mass_only:
+        L += [f"        W[_u({a * n + b} * BLK + j)] = m{min(a, b)}_{max(a, b)}" for a in range(n) for b in range(n)]
+        return _compile(L)
+    L += [f"        u{r}_{c} = U[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n) if not (upper and c < r)]
+    for i in range(n):
+        for b in range(n):
+            t = " + ".join(f"u{k}_{i} * m{min(k, b)}_{max(k, b)}" for k in range(n) if not (upper and k > i))
+            L.append(f"        W[_u({i * n + b} * BLK + j)] = {t}")
+    return _compile(L)
+
+
+def _dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    """W = U^T M_p (U from _inverse), see _gen_dyn; cspec: the pose-column kinds
+    and rods as a type (column_spec)."""
+
+
+@overload(_dyn_w, jit_options=_GEN_OPTIONS)
+def _ov_dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    kinds, rods, _ = _spec_of(cspec)
+    return _gen_dyn(nt.count, kinds, rods)
+
+
+def _mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    """W = M_p (full), see _gen_dyn."""
+
+
+@overload(_mass_p, jit_options=_GEN_OPTIONS)
+def _ov_mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
+    kinds, rods, _ = _spec_of(cspec)
+    return _gen_dyn(nt.count, kinds, rods, mass_only=True)
+
+
+# ---------------------------------------------------------------------- one block of points
+@njit(**_NJIT)
+def _alloc(nt):
+    """The scratch of one worker (flat rows of BLK, zeros: code that computes a
+    whole block reads finite numbers beyond m): legs (n, NLG BLK), four n x n
+    matrices (J, J^-1 or R^-1, K, W), the rigid-body B (NB rows), the
+    tridiagonal (2 n rows), vectors (NVS + 3 n rows)."""
+    n = len(nt)
+    return (np.zeros((n, NLG * BLK)), np.zeros((4, n * n * BLK)), np.zeros(NB * BLK), np.zeros(2 * n * BLK),
+            np.zeros((NVS + 3 * n) * BLK))
+
+
+@njit(**_NJIT)
+def _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, cb):
+    """Values and reach codes of design d at the m points of the frame block
+    FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
+    n = len(nt)
+    dyn, sv_inv, sv_j, cols, rods, rot = flags
+    Lg, mats, B, T, V = scratch
+    J = mats[0]
+    U = mats[1]
+    Kp = mats[2]
+    Wm = mats[3]
+    for j in range(m):
+        V[VOK * BLK + j] = 1.0
+    for i in range(n):
+        Li = Lg[i]
+        k = kind[i]
+        if k == 0:
+            _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn, cspec)
+        elif k == 1:
+            _leg_revolute(L, F, d, i, ptype, FRb, branch[i], m, Li, V, dyn, cspec)
+        else:
+            _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn, cspec)
+    _pose_rows(Lg, GG, ct, FRb, m, J, nt)
+    if cols:
+        for c in range(n):
+            for j in range(m):
+                s = 0.0
+                for i in range(n):
+                    x = J[(i * n + c) * BLK + j]
+                    s += x * x
+                vb[(COL0 + c) * CHUNK + j] = s
+    _inverse(J, U, V, nt, m)
+    for j in range(m):
+        s = 0.0
+        for i in range(n * n):
+            x = J[i * BLK + j]
+            s += x * x
+        cf = math.sqrt(s * V[VI2 * BLK + j])
+        det = V[VDET * BLK + j]
+        good = (V[VOK * BLK + j] != 0.0) & (det > 0.0) & (cf < HARD)
+        V[VMASK * BLK + j] = 1.0 if good else 0.0
+        cb[j] = (1.0 if good else 2.0) if V[VOK * BLK + j] != 0.0 else 0.0
+        vb[FRO * CHUNK + j] = cf
+        vb[IFRO * CHUNK + j] = 1.0 / cf
+        vb[DET * CHUNK + j] = det
+    if sv_inv:
+        _lmax_rows(U, V[VLU * BLK:(VLU + 1) * BLK], T, V, nt, m)
+        for j in range(m):
+            s2 = 1.0 / V[VLU * BLK + j]
+            vb[SMIN2 * CHUNK + j] = s2
+            vb[SMIN * CHUNK + j] = math.sqrt(s2)
+        if sv_j:
+            _lmax_cols(J, V[VLJ * BLK:(VLJ + 1) * BLK], T, V, nt, m)
+            for j in range(m):
+                vb[TWO * CHUNK + j] = math.sqrt(V[VLJ * BLK + j] * V[VLU * BLK + j])
+    if dyn:
+        if rods:
+            _pose_rows(Lg, GK, ct, FRb, m, Kp, nt)
+        _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot)
+        _dyn_w(B, Lg, J, Kp, FRb, U, Wm, nt, cspec, m)
+        _lmax_dyn(Wm, V[VLW * BLK:(VLW + 1) * BLK], T, V, nt, m)
+        for j in range(m):
+            vb[DYN * CHUNK + j] = math.sqrt(V[VLW * BLK + j])
     for v in range(NVAL):
-        if want[v] and not (vals[v] < np.inf and vals[v] > -np.inf):
-            return 2
-    return 1
+        if want[v]:
+            for j in range(m):
+                x = vb[v * CHUNK + j]
+                cb[j] = 2.0 if (cb[j] == 1.0) & (not (x < np.inf and x > -np.inf)) else cb[j]
 
 
-@njit(**_NJIT)
-def _scratch(n):
-    """Scratch matrices (R, S, J, J^-1, Gauss-Jordan, SVD, leg geometry, M_p, M,
-    body maps x 4) and vectors (origin, angles, singular values) of one task."""
-    m2 = (np.empty((3, 3)), np.empty((6, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, 2 * n)),
-          np.empty((n, n)), np.empty((n, 14)), np.empty((n, n)), np.empty((n, n)), np.empty((3, n)),
-          np.empty((3, n)), np.empty((3, n)), np.empty((3, n)))
-    return m2, (np.empty(3), np.empty(3), np.empty(n))
-
-
-@njit(**_NJIT)
-def _chunk(ptype, conv, roles, cols, kind, branch, L, F, d, X, lo, hi, want, codes, out):
-    """Codes of points lo..hi-1 and the chunk's (sum, min, max, centred sum of
-    squares) per wanted value into out (NVAL, 4); returns the count."""
-    n = kind.shape[0]
-    m2, m1 = _scratch(n)
-    vals = np.zeros(NVAL)
-    buf = np.empty((NVAL, hi - lo))
-    dyn = want[DYN]
-    needs_sv = want[SMIN] or want[SMIN2] or want[TWO]
-    want_cols = False
-    for v in range(COL0, NVAL):
-        want_cols = want_cols or want[v]
+@njit(**_NJIT_RED)
+def _chunk_stats(vals, cb, n_pts, want, out):
+    """For each wanted value its sum, min, max and centred sum of squares over
+    the points of code 1 (cb[j] == 1) into out (NVAL, 4); returns their count.
+    Compiled with reassociation so that the sums vectorize: the order is still
+    the compiled code's, the same for every thread count."""
     k = 0
-    for j in range(lo, hi):
-        c = _point(ptype, conv, roles, cols, kind, branch, L, F, d, X, j, want, dyn, needs_sv, want_cols, m2, m1, vals)
-        codes[j - lo] = c
-        if c == 1:
-            for v in range(NVAL):
-                buf[v, k] = vals[v]
-            k += 1
+    for j in range(n_pts):
+        k += 1 if cb[j] == 1.0 else 0
+    if k == 0:
+        return 0
     for v in range(NVAL):
-        if not want[v] or k == 0:
+        if not want[v]:
             continue
+        x = vals[v * CHUNK:v * CHUNK + n_pts]
         s = 0.0
         mn = np.inf
         mx = -np.inf
-        for i in range(k):
-            x = buf[v, i]
-            s += x
-            mn = min(mn, x)
-            mx = max(mx, x)
+        for j in range(n_pts):
+            r = cb[j] == 1.0
+            xj = x[j]
+            s += xj if r else 0.0
+            lo = xj if r else np.inf
+            hi = xj if r else -np.inf
+            mn = lo if lo < mn else mn
+            mx = hi if hi > mx else mx
         mu = s / k
         m2 = 0.0
-        for i in range(k):
-            e = buf[v, i] - mu
-            m2 += e * e
+        for j in range(n_pts):
+            e = x[j] - mu
+            m2 += e * e if cb[j] == 1.0 else 0.0
         out[v, 0] = s
         out[v, 1] = mn
         out[v, 2] = mx
@@ -590,22 +1186,64 @@ def _chunk(ptype, conv, roles, cols, kind, branch, L, F, d, X, lo, hi, want, cod
     return k
 
 
+@njit(**_NJIT)
+def _load_block(FRd, lo, m, FRb):
+    """The frame data of points lo..lo+m-1 (rows of FRd (N, rows)) into the rows of the block FRb."""
+    rows = FRd.shape[1]
+    src = FRd[lo:lo + m]
+    for k in range(rows):
+        for j in range(m):
+            FRb[_u(k * BLK + j)] = src[j, k]
+
+
+@njit(**_NJIT)
+def _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, lo, n_pts, want, flags, scratch, FRb, vals, cb, out):
+    """Codes of the n_pts points from lo into cb (as floats) and the chunk's
+    (sum, min, max, centred sum of squares) per wanted value into out (NVAL, 4);
+    returns the count of code-1 points."""
+    for b in range(0, n_pts, BLK):
+        m = min(BLK, n_pts - b)
+        _load_block(FRd, lo + b, m, FRb)
+        _block(nt, cspec, ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vals[b:], cb[b:])
+    return _chunk_stats(vals, cb, n_pts, want, out)
+
+
 @njit(parallel=True, **_NJIT)
-def summary(ptype, conv, roles, cols, kind, branch, L, F, X, want):
+def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
     """Per-design statistics (D, NVAL, 4: sum, min, max, centred sum of squares)
-    over the points of code 1, their counts (D,), the codes (D, N) (int8)."""
+    over the points of code 1, their counts (D,), the codes (D, N) (int8).
+
+    nt: a tuple of n zeros (its length, the size, is a compile-time constant);
+    cspec: the pose-column kinds and rods as a type (column_spec: compile-time
+    too); ct (n,): the pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
+    FR (1 or D, N, FR_ROWS[ptype]): the frame data of the N points; want (NVAL,) booleans; flags: (dynamic, sigma_min,
+    sigma_max, column norms, rods, rotations) booleans.  Work: tasks of CHUNK
+    points of one design, shared among ``workers`` parallel loops (numba's
+    thread count) in a fixed pattern; each task's results are its own."""
     D = L.shape[0]
-    N = X.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
+    ntask = D * nch
     codes = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
     cnt = np.empty((D, nch), dtype=np.int64)
-    for t in prange(D * nch):
-        d = t // nch
-        c = t % nch
-        lo = c * CHUNK
-        hi = min(lo + CHUNK, N)
-        cnt[d, c] = _chunk(ptype, conv, roles, cols, kind, branch, L, F, d, X, lo, hi, want, codes[d, lo:hi], part[d, c])
+    nw = max(1, min(workers, ntask))
+    per_design = FR.shape[0] > 1
+    for w in prange(nw):
+        scratch = _alloc(nt)
+        FRb = np.zeros(NFR * BLK)
+        vals = np.zeros(NVAL * CHUNK)
+        cbuf = np.empty(CHUNK)
+        for t in range(w, ntask, nw):
+            d = t // nch
+            c = t % nch
+            lo = c * CHUNK
+            hi = min(lo + CHUNK, N)
+            FRd = FR[d] if per_design else FR[0]
+            cnt[d, c] = _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, lo, hi - lo, want, flags, scratch, FRb,
+                              vals, cbuf, part[d, c])
+            cd = codes[d, lo:hi]
+            for j in range(hi - lo):
+                cd[j] = np.int8(cbuf[j])
     stats = np.full((D, NVAL, 4), np.nan)
     counts = np.zeros(D, dtype=np.int64)
     for d in range(D):
@@ -638,3 +1276,101 @@ def summary(ptype, conv, roles, cols, kind, branch, L, F, X, want):
             stats[d, v, 2] = mx
             stats[d, v, 3] = m2
     return stats, counts, codes
+
+
+@njit(**_NJIT)
+def mass_blocks(nt, cspec, ptype, ct, kind, branch, L, F, FRg, bd):
+    """The pose-space mass matrices M_p (blocks, n n BLK; row-major entries,
+    rows of BLK) at the points of FRg (blocks BLK, rows), block b (its BLK
+    points) of design bd[b]: for the points the kernel leaves to the numpy
+    path, whose J that path computes itself (bitwise its own) while M_p enters
+    the dynamic index through J^-T M_p, insensitive to its round-off.  Serial:
+    the points are few, and a parallel region started right after numpy's
+    LAPACK calls waits for the BLAS threads still spinning."""
+    n = len(nt)
+    nb = FRg.shape[0] // BLK
+    out = np.zeros((nb, n * n * BLK))
+    rods = False
+    for i in range(n):
+        rods = rods or kind[i] != 2
+    Lg, mats, B, T, V = _alloc(nt)
+    J = mats[0]
+    Kp = mats[2]
+    FRb = np.zeros(NFR * BLK)
+    for b in range(nb):
+        d = bd[b]
+        _load_block(FRg, b * BLK, BLK, FRb)
+        for j in range(BLK):
+            V[VOK * BLK + j] = 1.0
+        for i in range(n):
+            Li = Lg[i]
+            k = kind[i]
+            if k == 0:
+                _leg_prismatic(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+            elif k == 1:
+                _leg_revolute(L, F, d, i, ptype, FRb, branch[i], BLK, Li, V, True, cspec)
+            else:
+                _leg_strut(L, F, d, i, ptype, FRb, BLK, Li, True, cspec)
+        _pose_rows(Lg, GG, ct, FRb, BLK, J, nt)
+        if rods:
+            _pose_rows(Lg, GK, ct, FRb, BLK, Kp, nt)
+        _rigid(ptype, F, d, FRb, BLK, Lg, B, nt, ptype != 0)
+        _mass_p(B, Lg, J, Kp, FRb, mats[1], out[b], nt, cspec, BLK)
+    return out
+
+
+@njit(**_NJIT)
+def gram_lambda_max_stack(X, nt, rows):
+    """lambda_max of X^T X (rows False) or of X X^T (rows True; X upper
+    triangular for n >= 4, as _inverse leaves it) for each X of the stack
+    (K, n, n), by the kernel's own routines (for tests); nt: a tuple of n zeros."""
+    n = len(nt)
+    K = X.shape[0]
+    out = np.empty(K)
+    G = np.empty(n * n * BLK)
+    T = np.empty(2 * n * BLK)
+    V = np.empty((NVS + 3 * n) * BLK)
+    lam = np.empty(BLK)
+    for b in range(0, K, BLK):
+        m = min(BLK, K - b)
+        for j in range(m):
+            for r in range(n):
+                for c in range(n):
+                    G[(r * n + c) * BLK + j] = X[b + j, r, c]
+            V[VMASK * BLK + j] = 1.0
+        if rows:
+            _lmax_rows(G, lam, T, V, nt, m)
+        else:
+            _lmax_cols(G, lam, T, V, nt, m)
+        for j in range(m):
+            out[b + j] = lam[j]
+    return out
+
+
+@njit(**_NJIT)
+def inverse_stack(A, nt):
+    """(|det|, ||A^-1||_F^2, U) of each square matrix of the stack A (K, n, n)
+    by the kernel's _inverse (U = A^-1 for n <= 3, R^-1 of A = QR for n >= 4;
+    for tests)."""
+    n = len(nt)
+    K = A.shape[0]
+    det = np.empty(K)
+    i2 = np.empty(K)
+    Ui = np.empty((K, n, n))
+    Rq = np.empty(n * n * BLK)
+    U = np.zeros(n * n * BLK)
+    V = np.empty((NVS + 3 * n) * BLK)
+    for b in range(0, K, BLK):
+        m = min(BLK, K - b)
+        for j in range(m):
+            for r in range(n):
+                for c in range(n):
+                    Rq[(r * n + c) * BLK + j] = A[b + j, r, c]
+        _inverse(Rq, U, V, nt, m)
+        for j in range(m):
+            det[b + j] = V[VDET * BLK + j]
+            i2[b + j] = V[VI2 * BLK + j]
+            for r in range(n):
+                for c in range(n):
+                    Ui[b + j, r, c] = U[(r * n + c) * BLK + j]
+    return det, i2, Ui

@@ -88,11 +88,12 @@ def plan(requests, dof: int, has_dynamics: bool):
 
 
 _PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
-_ROLE = {"x": 0, "y": 1, "z": 2, "roll": 3, "pitch": 4, "yaw": 5}
+#: pose-column kinds of the kernel in the rates convention: a twist component, or roll's / pitch's Euler column
+_RATE_COLUMN = {"x": 0, "y": 1, "z": 2, "roll": 6, "pitch": 7, "yaw": 5}
 
 
 def pack(mech):
-    """(codes: ptype, conv, roles, cols, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
+    """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
     from . import _kernels as K
     from .poses import twist_columns
 
@@ -106,7 +107,7 @@ def pack(mech):
     def per_design(a, tail):
         return np.broadcast_to(np.asarray(a, dtype=float), shape + tail).reshape((D,) + tail)
 
-    L = np.zeros((D, n, K.NL))
+    L = np.empty((D, n, K.NL))
     L[:, :, K.LA:K.LA + 3] = per_design(C.A, (n, 3))
     L[:, :, K.LP:K.LP + 3] = per_design(C.P, (n, 3))
     L[:, :, K.LU:K.LU + 3] = per_design(C.U, (n, 3))
@@ -125,34 +126,101 @@ def pack(mech):
     L[:, :, K.LM2] = np.where(kind == 2, B["upper_mass"], 0.0)
     L[:, :, K.LE2] = B["upper_centre"]
     L[:, :, K.LI12] = np.where(kind == 2, B["lower_inertia"] + B["upper_inertia"], 0.0)
-    F = np.zeros((D, K.NF))
+    F = np.empty((D, K.NF))
     F[:, K.FCEN:K.FCEN + 3] = per_design(C.centre, (3,))
     F[:, K.FFIX:K.FFIX + 3] = per_design(C.fixed, (3,))
     F[:, K.FMP] = per_design(C.m_platform, ())
     F[:, K.FIP:K.FIP + 9] = per_design(C.I_platform, (3, 3)).reshape(D, 9)
     F[:, K.FCOM:K.FCOM + 3] = per_design(C.com, (3,))
     spec = mech.pose_spec
-    codes = (_PTYPE[spec.type], 1 if spec.jacobian == "angular_velocity" else 0,
-             np.array([_ROLE[r] for r in spec.roles], dtype=np.int64),
-             np.array(twist_columns(spec), dtype=np.int64), np.ascontiguousarray(kind, dtype=np.int64),
-             np.ascontiguousarray(C.branch, dtype=np.int64))
-    return codes, np.ascontiguousarray(L), np.ascontiguousarray(F), D
+    ptype = _PTYPE[spec.type]
+    if spec.jacobian == "angular_velocity" or ptype < 2:
+        ct = np.array(twist_columns(spec), dtype=np.int64)
+    else:
+        ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
+    codes = (ptype, ct, np.ascontiguousarray(kind, dtype=np.int64), np.ascontiguousarray(C.branch, dtype=np.int64))
+    return codes, L, F, D
 
 
-def _local_numpy(kind, conv, opts, J, M):
+def frame_rows(mech, X, fixed):
+    """The kernel's per-point frame data (g, N, rows) from the numpy path's own
+    frames (optdesign.mechanisms.described.poses), for fixed angles (g, 1, 3)
+    shaped as the numpy path's design axis: the origin from the pose (0 for a
+    rotation pose, whose centre the kernel adds), R (not for translation
+    poses) and the entries of the Euler columns (rotation and spatial poses)."""
+    from . import _kernels as K
+    from .poses import frames
+
+    spec = mech.pose_spec
+    g, N = fixed.shape[0], X.shape[0]
+    if spec.type == "translation":
+        # the origin is the pose itself (frames' x + 0 differs from x only in the sign of a zero)
+        return np.ascontiguousarray(X, dtype=float)[None]
+    out = np.zeros((g, N, K.FR_ROWS[_PTYPE[spec.type]]))
+    fr = frames(spec, X, np.zeros(3), fixed)
+    if spec.type != "rotation":
+        out[:, :, K.FRO_:K.FRO_ + 3] = fr.origin
+    out[:, :, K.FRR:K.FRR + 9] = np.broadcast_to(fr.R, (g, N, 3, 3)).reshape(g, N, 9)
+    if spec.type in ("rotation", "spatial"):
+        cp, sp = np.cos(fr.angles["pitch"]), np.sin(fr.angles["pitch"])
+        cy, sy = np.cos(fr.angles["yaw"]), np.sin(fr.angles["yaw"])
+        for k, v in enumerate((cy * cp, sy * cp, -sp, -sy, cy)):
+            out[:, :, K.FRE + k] = v
+    return out
+
+
+#: frame data per design at most this many values per kernel call (designs in groups beyond)
+_FR_BUDGET = 4_000_000
+
+
+def _run_kernel(K, mech, codes, L, F, X, want):
+    """The kernel's (stats, counts, codes) for every design: one call when the
+    frames are the same for all designs (a rotation pose's fixed angles do not
+    vary), else per group of designs with their own frames."""
+    ptype, ct, kind, branch = codes
+    n = len(kind)
+    nt = (0,) * n
+    cspec = K.column_spec(ct, np.any(kind != 2), ptype != 0)
+    N = X.shape[0]
+    flags = (bool(want[K.DYN]), bool(want[K.SMIN] or want[K.SMIN2] or want[K.TWO]), bool(want[K.TWO]),
+             bool(want[K.COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+    args = (nt, cspec, ptype, ct, kind, branch)
+    import numba
+
+    workers = numba.get_num_threads()
+    fix = F[:, K.FFIX:K.FFIX + 3]
+    D = F.shape[0]
+    spec = mech.pose_spec
+    if spec.type != "rotation" or len(spec.roles) == 3 or np.all(fix == fix[0]):
+        FR = frame_rows(mech, X, fix[:1, None, :])
+        return KERNELS.guarded(K.summary, *args, L, F, FR, N, want, flags, workers)
+    step = max(1, _FR_BUDGET // (K.NFR * max(1, X.shape[0])))
+    parts = []
+    for lo in range(0, D, step):
+        sl = slice(lo, min(D, lo + step))
+        FR = frame_rows(mech, X, fix[sl, None, :])
+        res = KERNELS.guarded(K.summary, *args, np.ascontiguousarray(L[sl]), np.ascontiguousarray(F[sl]), FR, N,
+                              want, flags, workers)
+        if res is None:
+            return None
+        parts.append(res)
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
+
+
+def _local_numpy(kind, conv, opts, J, svJ, svM):
     """The numpy path's local value of one index (optdesign.indices' formulas,
-    from the same optdesign.linalg functions, so the values are the same)."""
+    from the same optdesign.linalg functions, so the values are the same);
+    svJ, svM: singular_values(J), singular_values(M) computed once."""
     k = float(opts.get("k", 1.0))
     if kind == "dynamic":
-        return sigma_max_of(*singular_values(M))
+        return sigma_max_of(*svM)
     if kind == "stiffness":
-        s = sigma_min_of(*singular_values(J))
+        s = sigma_min_of(*svJ)
         return k * s * s if conv in (None, "lambda_min_K") else np.sqrt(k) * s
     if kind == "isotropy":
-        sv = singular_values(J)
-        return cond_fro_of(*sv, J.shape) if conv in (None, "frobenius") else cond_2_of(*sv, J.shape)
+        return cond_fro_of(*svJ, J.shape) if conv in (None, "frobenius") else cond_2_of(*svJ, J.shape)
     if kind == "dexterity":
-        c = cond_fro_of(*singular_values(J), J.shape)
+        c = cond_fro_of(*svJ, J.shape)
         n = J.shape[-1] if conv == "normalized" else 1.0
         return np.where(np.isfinite(c), n / c, 0.0)
     Jc, good = finite_stack(J)
@@ -163,18 +231,84 @@ def _local_numpy(kind, conv, opts, J, M):
     return np.where(good, k * np.sum(Jc[..., :, a] ** 2, axis=-1), 0.0)
 
 
-def _numpy_values(mech, X, dd, jj, entries):
-    """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i])."""
-    shape = mech.constants.shape
+def _mass_at(K, mech, codes, L, F, X, dd, jj):
+    """The kernel's M_p (K, n, n) at the pairs (design dd[i], point jj[i]), dd
+    sorted: each design's points in blocks of their own."""
+    ptype, ct, kind, branch = codes
+    n = len(kind)
+    starts = np.flatnonzero(np.r_[True, dd[1:] != dd[:-1]])
+    ends = np.r_[starts[1:], len(dd)]
+    fix = F[:, K.FFIX:K.FFIX + 3]
+    frs, nbs = [], []
+    for a, b in zip(starts, ends):
+        fr = frame_rows(mech, X[jj[a:b]], fix[dd[a]:dd[a] + 1, None, :])[0]
+        nb = -(-(b - a) // K.BLK)
+        frs.append(np.concatenate([fr, np.zeros((nb * K.BLK - (b - a), fr.shape[1]))]))
+        nbs.append(nb)
+    bd = np.repeat(dd[starts].astype(np.int64), nbs)
+    Mp = K.mass_blocks((0,) * n, K.column_spec(ct, np.any(kind != 2), ptype != 0), ptype, ct, kind, branch, L, F,
+                       np.concatenate(frs), bd)
+    Mp = Mp.reshape(-1, n * n, K.BLK).transpose(0, 2, 1).reshape(-1, n, n)
+    offs = np.cumsum([0] + nbs[:-1]) * K.BLK
+    rows = np.concatenate([o + np.arange(b - a) for a, b, o in zip(starts, ends, offs)])
+    return Mp[rows]
+
+
+def _take(C, dd):
+    """The Constants C (design shape S) at the designs dd (shape (K,))."""
+    import dataclasses
+
+    S = C.shape
+    D = int(np.prod(S)) if S else 1
+
+    def take(a):
+        a = np.asarray(a)
+        tail = a.shape[len(S):]
+        return np.broadcast_to(a, S + tail).reshape((D,) + tail)[dd]
+
+    out = {}
+    for f in dataclasses.fields(C):
+        v = getattr(C, f.name)
+        if f.name == "shape":
+            out[f.name] = (len(dd),)
+        elif f.name in ("kind", "branch"):
+            out[f.name] = v
+        elif isinstance(v, dict):
+            out[f.name] = {k: take(x) for k, x in v.items()}
+        else:
+            out[f.name] = take(v)
+    return type(C)(**out)
+
+
+def _numpy_values(mech, X, dd, jj, entries, K=None, packed=None):
+    """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i]):
+    J from the numpy path itself; for the dynamic index M = J^-T M_p with the
+    kernel's M_p (packed: pack(mech)) where the kernel is given."""
+    from .mechanism import _solve_T
+
+    C = mech.constants
+    shape = C.shape
     D = int(np.prod(shape)) if shape else 1
     params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] if np.ndim(v) else v
               for k, v in mech.params.items()}
     sub = type(mech)(**params)
-    Xk = np.asarray(X, dtype=float)[jj]
-    needs = {"J"} | ({"M"} if any(e[0] == "dynamic" for e in entries) else set())
+    # its constants: the mechanism's own at the designs dd (the same numbers
+    # its expressions would give, without evaluating them again)
+    sub.__dict__["_constants"] = _take(C, dd)
+    X = np.asarray(X, dtype=float)
+    Xk = X[jj]
+    dyn = any(e[0] == "dynamic" for e in entries)
     with np.errstate(all="ignore"):
-        mats = sub.index_matrices(Xk, needs)
-        return np.stack([_local_numpy(kind, conv, opts, mats.get("J"), mats.get("M")) for kind, conv, opts in entries])
+        if dyn and K is not None:
+            J = sub.index_matrices(Xk, {"J"})["J"]
+            codes, L, F, _ = packed
+            M = _solve_T(J, _mass_at(K, mech, codes, L, F, X, dd, jj))
+        else:
+            mats = sub.index_matrices(Xk, {"J"} | ({"M"} if dyn else set()))
+            J, M = mats["J"], mats.get("M")
+        svJ = singular_values(J) if any(e[0] in ("stiffness", "isotropy", "dexterity") for e in entries) else None
+        svM = singular_values(M) if dyn else None
+        return np.stack([_local_numpy(kind, conv, opts, J, svJ, svM) for kind, conv, opts in entries])
 
 
 def _merge(stats, counts, extra, dd):
@@ -223,8 +357,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     rows = sorted({v for _, v, _ in pl} | ({K.TWO} if want_max_cond else set()))
     want = np.zeros(K.NVAL, dtype=np.bool_)
     want[rows] = True
-    Xc = np.ascontiguousarray(X)
-    res = KERNELS.guarded(K.summary, *codes, L, F, Xc, want)
+    res = _run_kernel(K, mech, codes, L, F, X, want)
     if res is None:
         return None
     stats, counts, cd = res
@@ -238,7 +371,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
         entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
         if want_max_cond:
             entries.append(("isotropy", "two_norm", {}))
-        extra = _numpy_values(mech, X, dd, jj, entries)
+        extra = _numpy_values(mech, X, dd, jj, entries, K, (codes, L, F, D))
         st, counts = _merge(st, counts, extra, dd)
     ok = counts > 0
     summary = {}
@@ -260,4 +393,4 @@ def reach_codes(mech, X) -> np.ndarray:
     codes, L, F, D = pack(mech)
     want = np.zeros(K.NVAL, dtype=np.bool_)
     want[K.FRO] = True
-    return K.summary(*codes, L, F, np.ascontiguousarray(X, dtype=float), want)[2]
+    return _run_kernel(K, mech, codes, L, F, np.asarray(X, dtype=float), want)[2]

@@ -69,14 +69,27 @@ def constants(desc: Description, params: dict) -> Constants:
     (name -> array of the design shape or scalar)."""
     env = {k: np.asarray(v, dtype=float) for k, v in params.items()}
     shape = np.broadcast_shapes(*(v.shape for v in env.values())) if env else ()
+    with np.errstate(all="ignore"):
+        return _constants(desc, env, shape)
+
+
+def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
     n = len(desc.legs)
 
     def ev(tree):
-        with np.errstate(all="ignore"):
-            return _bc(evaluate(tree, env), shape)
+        return evaluate(tree, env)          # a float or an array that broadcasts to shape
 
     def vec(trees):
-        return np.stack([ev(t) for t in trees], -1)
+        out = np.empty(shape + (len(trees),))
+        for k, t in enumerate(trees):
+            out[..., k] = ev(t)
+        return out
+
+    def per_leg(values):
+        out = np.empty(shape + (n,))
+        for i, v in enumerate(values):
+            out[..., i] = v
+        return out
 
     kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
     branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
@@ -84,7 +97,7 @@ def constants(desc: Description, params: dict) -> Constants:
     La, Lr = [], []
     zero3 = np.zeros(shape + (3,))
     for leg in desc.legs:
-        tb, tp = ev(leg.turn_base), ev(leg.turn_platform)
+        tb, tp = _bc(ev(leg.turn_base), shape), _bc(ev(leg.turn_platform), shape)
         A.append(_turn(vec(leg.base), tb))
         P.append(_turn(vec(leg.platform), tp))
         u = _unit(_turn(vec(leg.direction), tb)) if leg.direction is not None else zero3
@@ -96,18 +109,17 @@ def constants(desc: Description, params: dict) -> Constants:
         else:
             R0.append(zero3)
         AC.append(_unit(_turn(vec(leg.across), tb)) if leg.across is not None else zero3)
-        La.append(ev(leg.crank) if leg.crank is not None else np.zeros(shape))
-        Lr.append(ev(leg.rod) if leg.rod is not None else np.zeros(shape))
+        La.append(ev(leg.crank) if leg.crank is not None else 0.0)
+        Lr.append(ev(leg.rod) if leg.rod is not None else 0.0)
     A, P, U, R0, AC = (np.stack(v, -2) for v in (A, P, U, R0, AC))
-    with np.errstate(all="ignore"):
-        S0 = np.cross(U, R0)
-    La, Lr = np.stack(La, -1), np.stack(Lr, -1)
+    S0 = np.cross(U, R0)
+    La, Lr = per_leg(La), per_leg(Lr)
     pose = desc.pose
     centre = vec(pose.centre)
-    fixed = np.stack([ev(pose.fixed[a]) if a in pose.fixed else np.zeros(shape) for a in ("roll", "pitch", "yaw")], -1)
+    fixed = vec([pose.fixed.get(a, ("num", 0.0)) for a in ("roll", "pitch", "yaw")])
     plat = desc.platform
-    mp = ev(plat.mass) if plat.mass is not None else np.zeros(shape)
-    Ip = np.stack([np.stack([ev(t) for t in row], -1) for row in plat.inertia], -2)
+    mp = _bc(ev(plat.mass), shape) if plat.mass is not None else np.zeros(shape)
+    Ip = np.stack([vec(row) for row in plat.inertia], -2)
     com = vec(plat.com)
     body = {}
     for key in BODY_KEYS:
@@ -116,14 +128,14 @@ def constants(desc: Description, params: dict) -> Constants:
             if key in leg.bodies:
                 vals.append(ev(leg.bodies[key]))
             elif key == "rod_count":
-                vals.append(np.ones(shape))
+                vals.append(1.0)
             elif key in ("rod_centre", "crank_centre"):
-                vals.append(np.full(shape, 0.5))
+                vals.append(0.5)
             elif key == "rod_inertia":
                 m = ev(leg.bodies["rod_mass"]) if "rod_mass" in leg.bodies else np.zeros(shape)
                 vals.append(m * Lr[..., i] ** 2 / 12.0)
             else:
-                vals.append(np.zeros(shape))
-        body[key] = np.stack(vals, -1)
-    g = ev(desc.gravity)
+                vals.append(0.0)
+        body[key] = per_leg(vals)
+    g = _bc(ev(desc.gravity), shape)
     return Constants(shape, kind, branch, A, P, U, R0, S0, La, Lr, AC, centre, fixed, mp, Ip, com, g, body)
