@@ -56,6 +56,8 @@ from numba import uint64 as _u
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
+from ...fast._jit import lambda_max_psd
+from ...fast._jit import minor_dd as _minor_dd
 
 #: points per task: the unit of the reductions and of parallel work
 CHUNK = 256
@@ -106,92 +108,11 @@ _GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
 NEWTON = 5
 NEWTON_DYN = 5
 TAU = 1e-13
-#: closed form of _lmax3: the start of e^{i theta / 3} from z = e^{i theta}
-#: (c0 + c1 z + c2 conj(z) + c3 z^2, |error| < 0.02 on theta in [0, pi]),
-#: then two Halley steps on w^3 = z
-_C0R, _C0I = 0.6687456362503021, 0.38610047310849865
-_C1R, _C1I = 0.19364836492632637, -0.3354088068550356
-_C2R, _C2I = 0.0494623499389, -0.08567130315592646
-_C3R, _C3I = 0.06931901548496303, 0.04002135225020323
 
 
 # ---------------------------------------------------------------------- lambda_max
-@njit(inline="always", **_NJIT)
-def _lmax3_point(a00, a11, a22, a01, a02, a12):
-    """Largest eigenvalue of the symmetric positive semi-definite 3 x 3 matrix.
-
-    With q = tr(A) / 3, B = A - q I, p^2 = tr(B^2) / 6: lambda_max = q + 2 p
-    cos(theta / 3), theta = atan2(y, det B) with y^2 = 4 p^6 - det(B)^2 the
-    discriminant written as a weighted sum of squares of the 2 x 2 minors of
-    the pair (B, B^2 - 2 p^2 I) (it vanishes with them at a double
-    eigenvalue, so it keeps its relative accuracy there instead of
-    cancelling); cos(theta / 3) is the real part of the principal cube root of
-    (det B + i y) / (2 p^3), by a polynomial start and two Halley steps
-    (arithmetic only: the point loop vectorizes).
-    """
-    tr = a00 + a11 + a22
-    q = tr * (1.0 / 3.0)
-    b00 = a00 - q
-    b11 = a11 - q
-    b22 = a22 - q
-    oo01 = a01 * a01
-    oo02 = a02 * a02
-    oo12 = a12 * a12
-    p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (oo01 + oo02 + oo12)) * (1.0 / 6.0)
-    det = b00 * (b11 * b22 - oo12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02)
-    t2 = 2.0 * p2
-    c00 = b00 * b00 + oo01 + oo02 - t2
-    c11 = oo01 + b11 * b11 + oo12 - t2
-    c22 = oo02 + oo12 + b22 * b22 - t2
-    c01 = a01 * (b00 + b11) + a02 * a12
-    c02 = a02 * (b00 + b22) + a01 * a12
-    c12 = a12 * (b11 + b22) + a01 * a02
-    # orthogonal coordinates of the traceless parts: two for the diagonal
-    # (weights 1/2, 1/6), the off-diagonal entries (weight 2)
-    bx1 = b00 - b11
-    bx2 = b00 + b11 - 2.0 * b22
-    cx1 = c00 - c11
-    cx2 = c00 + c11 - 2.0 * c22
-    m12 = bx1 * cx2 - bx2 * cx1
-    m13 = bx1 * c01 - a01 * cx1
-    m14 = bx1 * c02 - a02 * cx1
-    m15 = bx1 * c12 - a12 * cx1
-    m23 = bx2 * c01 - a01 * cx2
-    m24 = bx2 * c02 - a02 * cx2
-    m25 = bx2 * c12 - a12 * cx2
-    m34 = a01 * c02 - a02 * c01
-    m35 = a01 * c12 - a12 * c01
-    m45 = a02 * c12 - a12 * c02
-    lag = ((1.0 / 12.0) * (m12 * m12) + (m13 * m13 + m14 * m14 + m15 * m15)
-           + (1.0 / 3.0) * (m23 * m23 + m24 * m24 + m25 * m25) + 4.0 * (m34 * m34 + m35 * m35 + m45 * m45))
-    y = math.sqrt(lag) * (1.0 / 3.0)
-    sp = math.sqrt(p2)
-    rho = 2.0 * p2 * sp          # |det B + i y| = 2 p^3
-    ok = rho > 0.0
-    irho = 1.0 / (rho if ok else 1.0)
-    zr = det * irho if ok else 1.0
-    zi = y * irho if ok else 0.0
-    z2r = zr * zr - zi * zi
-    z2i = 2.0 * zr * zi
-    wr = _C0R + _C1R * zr - _C1I * zi + _C2R * zr + _C2I * zi + _C3R * z2r - _C3I * z2i
-    wi = _C0I + _C1R * zi + _C1I * zr + _C2I * zr - _C2R * zi + _C3R * z2i + _C3I * z2r
-    for _ in range(2):
-        # Halley on w^3 = z: w <- w (w^3 + 2 z) / (2 w^3 + z)
-        sr = wr * wr - wi * wi
-        si = 2.0 * wr * wi
-        cr = sr * wr - si * wi
-        ci = sr * wi + si * wr
-        nr0 = cr + 2.0 * zr
-        ni0 = ci + 2.0 * zi
-        nr = wr * nr0 - wi * ni0
-        ni = wr * ni0 + wi * nr0
-        dr = 2.0 * cr + zr
-        di = 2.0 * ci + zi
-        idd = 1.0 / (dr * dr + di * di)
-        wr = (nr * dr + ni * di) * idd
-        wi = (ni * dr - nr * di) * idd
-    lam = q + 2.0 * sp * wr
-    return lam if tr > 0.0 else 0.0
+#: closed form for n = 3 (shared with the 3-P(4S) kernel)
+_lmax3_point = lambda_max_psd
 
 
 @njit(inline="always", **_NJIT)
@@ -232,17 +153,6 @@ def _bisect_flagged(T, out, V, nt, m):
 
 
 # ---------------------------------------------------------------------- dense small matrices
-@njit(inline="always", **_NJIT)
-def _minor_dd(a1, a2, b1, b2):
-    """a1 b2 - a2 b1 as an unevaluated sum hi + lo (error-free products, TwoSum)."""
-    p = a1 * b2
-    ep = _fma(a1, b2, -p)
-    q = a2 * b1
-    eq = _fma(a2, b1, -q)
-    h = p - q
-    bb = h - p
-    eh = (p - (h - bb)) + (-q - bb)
-    return h, eh + (ep - eq)
 
 
 @njit(inline="always", **_NJIT)
@@ -791,7 +701,7 @@ def _gen_qr_inverse(n):
             terms = " + ".join(f"a{r}_{k} * u{k}_{c}" for k in range(r + 1, c + 1))
             L.append(f"        u{r}_{c} = -({terms}) * u{r}_{r}")
     sq = " + ".join(f"u{r}_{c} * u{r}_{c}" for r in range(n) for c in range(r, n))
-    L += [f"        V[_u(VDET * BLK + j)] = dt", f"        V[_u(VI2 * BLK + j)] = {sq}"]
+    L += ["        V[_u(VDET * BLK + j)] = dt", f"        V[_u(VI2 * BLK + j)] = {sq}"]
     L += [f"        U[_u({r * n + c} * BLK + j)] = u{r}_{c}" for r in range(n) for c in range(r, n)]
     return _compile(_interleave(L))
 
