@@ -28,7 +28,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the test files whose cost is compilation of the described kernel
-FILES = ("test_described_compiled.py", "test_described_kernels.py")
+FILES = ("test_described_compiled.py", "test_described_kernels.py", "test_described_runs.py")
 #: set in the background run (so that it does not start one itself)
 ENV = "OPTDESIGN_WARMING"
 
