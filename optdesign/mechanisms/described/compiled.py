@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from ...fast import KernelModule, enabled
+from ...fast.merge import add_points
 from ...linalg import cond_2_of, cond_fro_of, finite_stack, sigma_max_of, sigma_min_of, singular_values
 from ..base import IndexRequest
 
@@ -313,29 +314,10 @@ def _numpy_values(mech, X, dd, jj, entries, K=None, packed=None):
 
 def _merge(stats, counts, extra, dd):
     """Add values extra (V, K) of designs dd (K,) to per-design (sum, min, max, M2) stats (D, V, 4)."""
-    D = counts.shape[0]
-    nb = np.bincount(dd, minlength=D)
-    n = counts + nb
-    has_a, has_b = counts > 0, nb > 0
     stats = stats.copy()
-    with np.errstate(all="ignore"):
-        for v in range(extra.shape[0]):
-            x = extra[v]
-            sb = np.bincount(dd, weights=x, minlength=D)
-            mb = sb / nb
-            m2b = np.bincount(dd, weights=(x - mb[dd]) ** 2, minlength=D)
-            lob = np.full(D, np.inf)
-            np.minimum.at(lob, dd, x)
-            hib = np.full(D, -np.inf)
-            np.maximum.at(hib, dd, x)
-            sa, loa, hia, m2a = (stats[:, v, i] for i in range(4))
-            delta = mb - sa / counts
-            both = has_a & has_b
-            stats[:, v, 0] = np.where(both, sa + sb, np.where(has_b, sb, sa))
-            stats[:, v, 1] = np.where(both, np.minimum(loa, lob), np.where(has_b, lob, loa))
-            stats[:, v, 2] = np.where(both, np.maximum(hia, hib), np.where(has_b, hib, hia))
-            stats[:, v, 3] = np.where(both, m2a + m2b + delta * delta * counts * nb / n, np.where(has_b, m2b, m2a))
-    return stats, n
+    for v in range(extra.shape[0]):
+        stats[:, v, :] = add_points(stats[:, v, :].T, counts, extra[v], dd).T
+    return stats, counts + np.bincount(dd, minlength=counts.shape[0])
 
 
 def global_statistics(mech, requests, X, want_max_cond: bool = False):

@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from ...fast import KernelModule, enabled
+from ...fast.merge import add_points
 from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singular_values
 from .dynamics import mass_coefficients, platform_mass, solve_T
 
@@ -149,31 +150,11 @@ def p4s_local(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np
 def _merge(stats, counts, extra, dd, want):
     """Add the values extra (5, K) of designs dd (K,) to the kernel's per-design
     (sum, min, max, centred sum of squares) (5, 4, D) and counts (D,)."""
-    D = counts.shape[0]
-    nb = np.bincount(dd, minlength=D)
-    n = counts + nb
-    has_a, has_b = counts > 0, nb > 0
     stats = stats.copy()
-    with np.errstate(all="ignore"):
-        for v in range(5):
-            if not want[v]:
-                continue
-            x = extra[v]
-            sb = np.bincount(dd, weights=x, minlength=D)
-            mb = sb / nb
-            m2b = np.bincount(dd, weights=(x - mb[dd]) ** 2, minlength=D)
-            lob = np.full(D, np.inf)
-            np.minimum.at(lob, dd, x)
-            hib = np.full(D, -np.inf)
-            np.maximum.at(hib, dd, x)
-            sa, loa, hia, m2a = stats[v]
-            delta = mb - sa / counts
-            both = has_a & has_b
-            stats[v, 0] = np.where(both, sa + sb, np.where(has_b, sb, sa))
-            stats[v, 1] = np.where(both, np.minimum(loa, lob), np.where(has_b, lob, loa))
-            stats[v, 2] = np.where(both, np.maximum(hia, hib), np.where(has_b, hib, hia))
-            stats[v, 3] = np.where(both, m2a + m2b + delta * delta * counts * nb / n, np.where(has_b, m2b, m2a))
-    return stats, n
+    for v in range(5):
+        if want[v]:
+            stats[v] = add_points(stats[v], counts, extra[v], dd)
+    return stats, counts + np.bincount(dd, minlength=counts.shape[0])
 
 
 def p4s_summary(mech, X, want=(True, True, True, True, True)):
