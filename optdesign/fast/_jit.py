@@ -1,6 +1,7 @@
 """What the compiled kernel modules share: numba's options, an explicit
-fused multiply-add, a compensated 2 x 2 minor and the closed-form largest eigenvalue of a symmetric
-positive semi-definite 3 x 3 matrix.
+fused multiply-add, a compensated 2 x 2 minor, the closed-form largest
+eigenvalue of a symmetric positive semi-definite 3 x 3 matrix and the
+combination of per-chunk statistics.
 
 numba's cache is keyed on the file of each cached function: an edit here does
 not invalidate the kernels that inline these helpers; delete their caches
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 from numba.core import types
 from numba.extending import intrinsic
@@ -138,3 +140,26 @@ def minor_dd(a1, a2, b1, b2):
     bb = h - p
     eh = (p - (h - bb)) + (-q - bb)
     return h, eh + (ep - eq)
+
+
+@njit(inline="always", **NJIT)
+def chunk_moments(part, cnt, d, v, k, nch):
+    """Sum, min, max and centred sum of squares of value v of design d from its
+    chunks' (part (D, nch, V, 4), counts cnt (D, nch)), in chunk order, over its
+    k > 0 points (Chan et al.'s pairwise update of the centred sum)."""
+    s = 0.0
+    lo = np.inf
+    hi = -np.inf
+    for c in range(nch):
+        if cnt[d, c] > 0:
+            s += part[d, c, v, 0]
+            lo = min(lo, part[d, c, v, 1])
+            hi = max(hi, part[d, c, v, 2])
+    mu = s / k
+    m2 = 0.0
+    for c in range(nch):
+        kc = cnt[d, c]
+        if kc > 0:
+            e = part[d, c, v, 0] / kc - mu
+            m2 += part[d, c, v, 3] + kc * (e * e)
+    return s, lo, hi, m2

@@ -56,7 +56,7 @@ from numba import uint64 as _u
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
-from ...fast._jit import lambda_max_psd
+from ...fast._jit import chunk_moments, lambda_max_psd
 from ...fast._jit import minor_dd as _minor_dd
 
 #: points per task: the unit of the reductions and of parallel work
@@ -1166,21 +1166,7 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
         for v in range(NVAL):
             if not want[v]:
                 continue
-            s = 0.0
-            mn = np.inf
-            mx = -np.inf
-            for c in range(nch):
-                if cnt[d, c] > 0:
-                    s += part[d, c, v, 0]
-                    mn = min(mn, part[d, c, v, 1])
-                    mx = max(mx, part[d, c, v, 2])
-            mu = s / k
-            m2 = 0.0
-            for c in range(nch):
-                kc = cnt[d, c]
-                if kc > 0:
-                    e = part[d, c, v, 0] / kc - mu
-                    m2 += part[d, c, v, 3] + kc * (e * e)
+            s, mn, mx, m2 = chunk_moments(part, cnt, d, v, k, nch)
             stats[d, v, 0] = s
             stats[d, v, 1] = mn
             stats[d, v, 2] = mx

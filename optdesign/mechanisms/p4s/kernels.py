@@ -42,7 +42,7 @@ from numba import njit, prange
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import fma as _fma
-from ...fast._jit import lambda_max_psd
+from ...fast._jit import chunk_moments, lambda_max_psd
 from ...fast._jit import minor_dd as _cross_dd
 from .geometry import E as _E
 
@@ -518,21 +518,7 @@ def _combine(d, nch, want, cnt, part, stats, counts):
     for v in range(NVAL):
         if not want[v]:
             continue
-        s = 0.0
-        lo_v = np.inf
-        hi_v = -np.inf
-        for c in range(nch):
-            if cnt[d, c] > 0:
-                s += part[d, c, v, 0]
-                lo_v = min(lo_v, part[d, c, v, 1])
-                hi_v = max(hi_v, part[d, c, v, 2])
-        mu = s / k
-        m2 = 0.0
-        for c in range(nch):
-            kc = cnt[d, c]
-            if kc > 0:
-                e = part[d, c, v, 0] / kc - mu
-                m2 += part[d, c, v, 3] + kc * (e * e)
+        s, lo_v, hi_v, m2 = chunk_moments(part, cnt, d, v, k, nch)
         stats[v, 0, d] = s
         stats[v, 1, d] = lo_v
         stats[v, 2, d] = hi_v
