@@ -1,5 +1,5 @@
 """What the compiled kernel modules share: numba's options, an explicit
-fused multiply-add, a compensated 2 x 2 minor, the closed-form largest
+fused multiply-add, a compensated 2 x 2 minor and dot product, the closed-form largest
 eigenvalue of a symmetric positive semi-definite 3 x 3 matrix and the
 combination of per-chunk statistics.
 
@@ -163,3 +163,21 @@ def chunk_moments(part, cnt, d, v, k, nch):
             e = part[d, c, v, 0] / kc - mu
             m2 += part[d, c, v, 3] + kc * (e * e)
     return s, lo, hi, m2
+
+
+@njit(inline="always", **NJIT)
+def dot3_dd(x0, x1, x2, h0, l0, h1, l1, h2, l2):
+    """x . (h + l) in about twice the working precision (products error-free, sums compensated)."""
+    p0 = x0 * h0
+    e0 = fma(x0, h0, -p0)
+    p1 = x1 * h1
+    e1 = fma(x1, h1, -p1)
+    p2 = x2 * h2
+    e2 = fma(x2, h2, -p2)
+    s = p0 + p1
+    bb = s - p0
+    es = (p0 - (s - bb)) + (p1 - bb)
+    t = s + p2
+    bb = t - s
+    et = (s - (t - bb)) + (p2 - bb)
+    return t + ((es + et) + (e0 + e1 + e2) + (x0 * l0 + x1 * l1 + x2 * l2))

@@ -55,8 +55,8 @@ from numba.extending import overload
 from numba import uint64 as _u
 
 from ...fast._jit import NJIT as _NJIT
-from ...fast._jit import fma as _fma
 from ...fast._jit import chunk_moments, lambda_max_psd
+from ...fast._jit import dot3_dd as _dot3_dd
 from ...fast._jit import minor_dd as _minor_dd
 
 #: points per task: the unit of the reductions and of parallel work
@@ -155,22 +155,6 @@ def _bisect_flagged(T, out, V, nt, m):
 # ---------------------------------------------------------------------- dense small matrices
 
 
-@njit(inline="always", **_NJIT)
-def _dot3_dd(x0, x1, x2, h0, l0, h1, l1, h2, l2):
-    """x . (h + l) in about twice the working precision (products error-free, sums compensated)."""
-    p0 = x0 * h0
-    e0 = _fma(x0, h0, -p0)
-    p1 = x1 * h1
-    e1 = _fma(x1, h1, -p1)
-    p2 = x2 * h2
-    e2 = _fma(x2, h2, -p2)
-    s = p0 + p1
-    bb = s - p0
-    es = (p0 - (s - bb)) + (p1 - bb)
-    t = s + p2
-    bb = t - s
-    et = (s - (t - bb)) + (p2 - bb)
-    return t + ((es + et) + (e0 + e1 + e2) + (x0 * l0 + x1 * l1 + x2 * l2))
 
 
 @njit(**_NJIT)

@@ -41,8 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from ...fast._jit import NJIT as _NJIT
-from ...fast._jit import fma as _fma
-from ...fast._jit import chunk_moments, lambda_max_psd
+from ...fast._jit import chunk_moments, dot3_dd, lambda_max_psd
 from ...fast._jit import minor_dd as _cross_dd
 from .geometry import E as _E
 
@@ -83,19 +82,7 @@ def _det3_dd(n00, n01, n02, n10, n11, n12, n20, n21, n22):
     a0, l0 = _cross_dd(n11, n12, n21, n22)
     a1, l1 = _cross_dd(n12, n10, n22, n20)
     a2, l2 = _cross_dd(n10, n11, n20, n21)
-    p0 = n00 * a0
-    e0 = _fma(n00, a0, -p0)
-    p1 = n01 * a1
-    e1 = _fma(n01, a1, -p1)
-    p2 = n02 * a2
-    e2 = _fma(n02, a2, -p2)
-    s = p0 + p1
-    bb = s - p0
-    es = (p0 - (s - bb)) + (p1 - bb)
-    t = s + p2
-    bb = t - s
-    et = (s - (t - bb)) + (p2 - bb)
-    return t + ((es + et) + (e0 + e1 + e2) + (n00 * l0 + n01 * l1 + n02 * l2))
+    return dot3_dd(n00, n01, n02, a0, l0, a1, l1, a2, l2)
 
 
 
