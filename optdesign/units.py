@@ -18,7 +18,7 @@ from .evaluate import mechanism_class
 
 __all__ = ["DIMENSIONLESS", "MIXED", "variable_unit", "pose_unit", "pose_display", "index_unit", "objective_unit",
            "label", "index_label", "variable_label", "design_text", "index_text", "constraint_unit", "csv_column",
-           "display_rows", "strip_unit", "actuator_unit"]
+           "display_rows", "strip_unit", "actuator_unit", "actuator_units"]
 
 #: shown for a dimensionless quantity
 DIMENSIONLESS = "–"
@@ -74,6 +74,15 @@ def _actuator_unit(cfg: Config) -> str:
 def actuator_unit(cfg: Config) -> str:
     """SI unit of the actuator values (m for prismatic joints and struts, rad for cranks)."""
     return _actuator_unit(cfg)
+
+
+def actuator_units(cfg: Config) -> list[str]:
+    """SI unit of each actuator coordinate, in order (a described mechanism's
+    legs may mix cranks, rad, and strokes, m)."""
+    mech = _mech(cfg)
+    params = {**mech.fixed_parameters, **cfg.parameters}
+    per = getattr(mech, "actuator_units", None)
+    return list(per(params)) if per is not None else [mech.actuator_unit(params)] * len(mech.actuator_names)
 
 
 def _pose_common(cfg: Config, axes=None) -> str | None:

@@ -131,17 +131,32 @@ class Workspace:
             return list(self.names[:2]) + ([self.names[2]] if fixed3[1] > fixed3[0] else [])
         return [a for a in self.names if self.spec.axes[a][1] > self.spec.axes[a][0]]
 
-    def describe(self) -> str:
+    def describe(self, units=None) -> str:
+        """One line: the region and its sampling.  ``units`` (axis -> (unit,
+        factor), value shown = SI value * factor) shows it in the config's
+        units with each unit named; without, the values are SI."""
         s = self.spec
+
+        def num(a, v):
+            if not units or a not in units:
+                return f"{v:g}"
+            u, f = units[a]
+            return f"{v * f:g}" + ("" if u in ("1", "–", "") else f" {u}")
+
         parts = []
         if s.type == "cylinder":
-            parts.append(f"cylinder r={s.radius:g} about ({s.center[0]:g}, {s.center[1]:g})")
+            xy = [a for a in self.names if a not in s.axes] or list(self.names[:1])
+            parts.append(f"cylinder r={num(xy[0], s.radius)} about ({num(xy[0], s.center[0])}, "
+                         f"{num(xy[0], s.center[1])})")
         for a in self.names:
             if a in s.axes:
                 lo, hi = s.axes[a]
-                parts.append(f"{a}={lo:g}" if lo == hi else f"{a} in [{lo:g}, {hi:g}]")
+                parts.append(f"{a}={num(a, lo)}" if lo == hi else f"{a} in [{num(a, lo)}, {num(a, hi)}]")
+        free = [a for a in self.names if a in s.axes and s.axes[a][0] != s.axes[a][1]] or list(self.names)
+        shown = {units[a] for a in free if a in units} if units else set()
+        step_axis = free[0] if len(shown) == 1 else None
         if s.sampling == "grid":
-            how = f"grid step {s.step:g}" if s.step else f"grid {s.points_per_axis}/axis"
+            how = f"grid step {num(step_axis, s.step)}" if s.step else f"grid {s.points_per_axis}/axis"
         elif s.sampling == "gauss":
             how = f"Gauss-Legendre {s.points_per_axis}/axis"
         elif s.sampling == "rqmc":

@@ -60,3 +60,46 @@ def test_init_refuses_a_name_validate_config_would_refuse(tmp_path):
     assert rc == 0, err
     rc, out, err = run_cli_in(tmp_path, ["validate-config", "c.yaml"])
     assert rc == 0, err
+
+
+# ---------------------------------------------------------------- ik / fk / evaluate
+def test_ik_names_a_crank_angle_in_rad(tmp_path):
+    rc, out, err = run_cli_in(tmp_path, ["ik", str(ROOT / "configs" / "delta.yaml"), "0", "0", "-0.55"])
+    assert rc == 0, err
+    parts = out.strip().split("  ")
+    assert [p.split(" = ")[0] for p in parts] == ["theta1", "theta2", "theta3"]
+    assert all(p.endswith(" rad") for p in parts), out
+    # the angle closes the leg: fk of it gives the pose back
+    angles = [p.split(" = ")[1].split()[0] for p in parts]
+    rc, out, err = run_cli_in(tmp_path, ["fk", str(ROOT / "configs" / "delta.yaml"), *angles])
+    assert rc == 0, err
+    z = float(out.split("z = ")[1].split()[0])
+    assert abs(z + 0.55) < 1e-9 and out.strip().endswith(" m")
+
+
+@pytest.mark.parametrize("value", ["-1e-3", "-1E-3", "-.001", "-0.001", "-1.0e-03"])
+def test_ik_takes_negative_numbers_with_exponents(tmp_path, value):
+    cfg = str(ROOT / "configs" / "p4s_paper.yaml")
+    rc, out, err = run_cli_in(tmp_path, ["ik", cfg, "--design", "after", value, "0", "0.592"])
+    assert rc == 0, err
+    rc2, ref, err = run_cli_in(tmp_path, ["ik", cfg, "--design", "after", "--", "-0.001", "0", "0.592"])
+    assert rc2 == 0 and out == ref
+    rc, out, err = run_cli_in(tmp_path, ["fk", cfg, "--design", "after", "0.42", "0.42", "0.42", "--json"])
+    assert rc == 0
+
+
+@pytest.mark.parametrize("garbage", ["abc", "-x", "1e", "--", "-1e-3e"])
+def test_ik_garbage_is_one_line(tmp_path, garbage):
+    cfg = str(ROOT / "configs" / "p4s_paper.yaml")
+    rc, out, err = run_cli_in(tmp_path, ["ik", cfg, "0", garbage, "0.592"])
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_evaluate_shows_the_workspace_in_the_configs_units(tmp_path):
+    rc, out, err = run_cli_in(tmp_path, ["evaluate", str(ROOT / "configs" / "sps_s.yaml"), "--design", "initial"])
+    assert rc == 0, err
+    first = out.splitlines()[0]
+    assert "psi in [-10 deg, 10 deg]" in first and "grid step 1 deg" in first, first
+    assert "0.1745" not in first
+    rc, out, err = run_cli_in(tmp_path, ["evaluate", str(ROOT / "configs" / "p4s_paper.yaml"), "--design", "before"])
+    assert "x in [-0.05 m, 0.05 m]" in out.splitlines()[0]

@@ -66,7 +66,10 @@ def run(args) -> int:
         return 0
     from ..units import index_label
 
-    print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe()}")
+    from ..units import pose_display
+
+    shown = {a: pose_display(cfg, a) for a in ws.names}   # the workspace in the config's units, each named
+    print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe(shown)}")
     print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
     headers = ["design", "index", "mean", "±", "reference", "rel. diff"]
     rows = comparison_rows(cfg, res)

@@ -2,8 +2,12 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
+
+#: what argparse takes for a negative number rather than an option: -1, -.5, -1e-3, -2.5E+4, -inf
+_NEGATIVE = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
 
 COMMAND = "ik"
 
@@ -12,6 +16,7 @@ def register(sub):
     for name, helptext, meta in (("ik", "inverse kinematics: pose -> actuator values", "POSE"),
                                  ("fk", "forward kinematics: actuator values -> pose", "ACT")):
         p = sub.add_parser(name, help=helptext)
+        p._negative_number_matcher = _NEGATIVE   # noqa: SLF001 - argparse's hook for negative numbers as values
         p.add_argument("config", help="YAML config file")
         p.add_argument("--design", default=None, metavar="NAME", help="named design (default: the initial design)")
         p.add_argument("values", nargs="+", type=float, metavar=meta,
@@ -47,9 +52,9 @@ def run(args) -> int:
             rec.update(_jacobians(mech, v))
         print(json.dumps(rec))
     elif ok:
-        from ..units import actuator_unit, pose_unit
+        from ..units import actuator_units, pose_unit
 
-        units = [actuator_unit(cfg)] * len(names_out) if args.kin == "ik" else [pose_unit(cfg, a) for a in names_out]
+        units = actuator_units(cfg) if args.kin == "ik" else [pose_unit(cfg, a) for a in names_out]
         print("  ".join(f"{n} = {x:.12g}" + ("" if u == "1" else f" {u}") for n, x, u in zip(names_out, out, units)))
     else:
         what = "this pose" if args.kin == "ik" else "these actuator values"

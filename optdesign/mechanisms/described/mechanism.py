@@ -70,6 +70,17 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     #: (raw description, label, key path) it was built from (pickling)
     raw_description: ClassVar[tuple] = ()
 
+    @classmethod
+    def actuator_units(cls, params=None) -> tuple[str, ...]:
+        """SI unit of each actuator coordinate: rad for a revolute leg's crank
+        angle, m for a prismatic leg's stroke and a strut's length."""
+        return tuple("rad" if leg.kind == "revolute" else "m" for leg in cls.description.legs)
+
+    @classmethod
+    def actuator_unit(cls, params) -> str:
+        units = set(cls.actuator_units(params))
+        return units.pop() if len(units) == 1 else "m"
+
     # ------------------------------------------------------------------ constants
     @property
     def constants(self) -> Constants:
