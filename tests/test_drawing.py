@@ -84,3 +84,19 @@ def test_described_drawing_closes_every_leg(config, monkeypatch):
     Xf = mech.forward(Q, X0=X)
     np.testing.assert_allclose(Xf, X, atol=1e-8)
     np.testing.assert_allclose(mech.drawing(Xf)["platform"], dr["platform"], atol=1e-8)
+
+
+def test_report_holds_the_mechanism_in_3d_with_a_slider_and_copy_buttons(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    from optdesign.report_html.report import write_report_html
+
+    src = Path(__file__).resolve().parents[1] / "runs" / "p4s_paper-reproduction"
+    dst = tmp_path / "run"
+    shutil.copytree(src, dst)
+    text = write_report_html(dst).read_text()
+    assert '"type":"scatter3d"' in text and '"type":"mesh3d"' in text
+    assert '"sliders":[' in text and 'Plotly.addFrames' in text
+    assert "button type=button class=copy data-snippet=" in text and "navigator.clipboard" in text
+    assert "The best Pareto alternatives" in text
