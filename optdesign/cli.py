@@ -102,6 +102,8 @@ def _ascii_float(text: str) -> float:
 
     if not isinstance(text, str) or not re.fullmatch(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]{1,6})?", text[:400]) \
             or len(text) > 400:
+        if isinstance(text, str) and text.strip().lstrip("+-").lower() in ("nan", "inf", "infinity"):
+            raise argparse.ArgumentTypeError(f"expected a finite number of ASCII digits, got {_quoted(text)}")
         raise argparse.ArgumentTypeError(f"expected a number of ASCII digits, got {_quoted(text)}")
     value = float(text)
     if not math.isfinite(value):
