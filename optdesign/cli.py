@@ -173,6 +173,7 @@ def _tolerant_output() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .io import UnsafeDestination
     from .names import OutsideRoot
     from .workspace import WorkspaceTooLarge
 
@@ -192,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         return _error(str(exc))
     except UsageError as exc:
         return _error(str(exc))
-    except (WorkspaceTooLarge, OutsideRoot) as exc:
+    except (WorkspaceTooLarge, OutsideRoot, UnsafeDestination) as exc:
         return _error(str(exc))
     except KeyboardInterrupt:
         print("optdesign: interrupted", file=sys.stderr)

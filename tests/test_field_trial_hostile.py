@@ -99,3 +99,67 @@ def test_a_subnormal_in_a_description_is_refused():
         with pytest.raises(ExprError, match="subnormal|sensible size"):
             parse(v, ["a"])
     assert parse("a * 1e-300", ["a"])[3] == ("num", 1e-300)
+
+
+# ---------------------------------------------------------------- compare --out and atomic writes
+
+RUN = ROOT / "runs" / "p4s_paper-reproduction"
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    import shutil
+
+    top = tmp_path_factory.mktemp("cmp")
+    for n in ("a", "b"):
+        shutil.copytree(RUN, top / n)
+    return top
+
+
+@pytest.mark.parametrize("case", ["link to a text file", "link to an html file", "dangling link",
+                                  "an existing text file named .html", "not .html", "a FIFO"])
+def test_compare_never_overwrites_what_is_not_its_page(two_runs, tmp_path, case):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep")
+    page = tmp_path / "page.html"
+    page.write_text("<!DOCTYPE html><html></html>")
+    out = tmp_path / "out.html"
+    if case == "link to a text file":
+        out.symlink_to(victim)
+    elif case == "link to an html file":
+        out.symlink_to(page)
+    elif case == "dangling link":
+        out.symlink_to(tmp_path / "nowhere.html")
+    elif case == "an existing text file named .html":
+        out.write_text("keep")
+    elif case == "not .html":
+        out = victim
+    else:
+        import os
+
+        os.mkfifo(out)
+    rc, so, err = run_cli_in(tmp_path, ["compare", str(two_runs / "a"), str(two_runs / "b"), "--out", str(out)])
+    _one_line_error(rc, err, "--out")
+    assert victim.read_text() == "keep" and page.read_text() == "<!DOCTYPE html><html></html>"
+    assert not (tmp_path / "nowhere.html").exists()
+    if case == "an existing text file named .html":
+        assert out.read_text() == "keep"
+
+
+def test_compare_replaces_its_own_page(two_runs, tmp_path):
+    out = tmp_path / "out.html"
+    out.write_text("<!DOCTYPE html>\n<html>old</html>")
+    rc, so, err = run_cli_in(tmp_path, ["compare", str(two_runs / "a"), str(two_runs / "b"), "--out", str(out)])
+    assert rc == 0, err
+    assert out.read_text().startswith("<!DOCTYPE html>") and "old" not in out.read_text()[:100]
+
+
+def test_atomic_writes_refuse_a_link(tmp_path):
+    from optdesign.io import UnsafeDestination, atomic_write_text
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep")
+    (tmp_path / "summary.csv").symlink_to(victim)
+    with pytest.raises(UnsafeDestination, match="symbolic link"):
+        atomic_write_text(tmp_path / "summary.csv", "x")
+    assert victim.read_text() == "keep" and sorted(p.name for p in tmp_path.iterdir()) == ["summary.csv", "victim.txt"]

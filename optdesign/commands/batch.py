@@ -63,7 +63,7 @@ def _seed_list(text: str) -> list[int]:
     import re
 
     try:
-        if not all(re.fullmatch(r"[0-9]{1,20}", p) for p in parts):  # ASCII digits only ('٣' is not 3)
+        if not all(re.fullmatch(r"[+-]?[0-9]{1,20}", p) for p in parts):  # ASCII digits only ('٣' is not 3)
             raise ValueError(text)
         seeds = [int(p) for p in parts]
     except ValueError:
