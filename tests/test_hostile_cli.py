@@ -91,7 +91,7 @@ USAGE = [   # (arguments, words of the one line)
     (["batch", SMALL, "--seed-list", "1,,2"], "--seed-list: an empty entry"),
     (["batch", SMALL, "--seed-list", "1,-2"], "--seed-list: expected seeds in [0, 2^32)"),
     (["batch", SMALL, "--seed-list", "4294967296"], "--seed-list: expected seeds in [0, 2^32)"),
-    (["batch", SMALL, "--timeout", "nan"], "argument --timeout: expected a number of ASCII digits, got 'nan'"),
+    (["batch", SMALL, "--timeout", "nan"], "argument --timeout: expected a finite number of ASCII digits, got 'nan'"),
     (["batch", SMALL, "--retries", "-1"], "--retries: expected a non-negative integer"),
     (["atlas"], "atlas: the following arguments are required: config"),
     (["atlas", SMALL, "--resolution", "1"], "--resolution: expected an integer in [2, 2000]"),
