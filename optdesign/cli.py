@@ -86,6 +86,49 @@ def _one_line(text: str, limit: int = 400) -> str:
     return out if len(out) <= limit else out[:limit] + "..."
 
 
+def _ascii_int(text: str) -> int:
+    """An integer option: ASCII digits only (``int()`` would take '٣' as 3, '1_0' as 10, ' 3 ' as 3)."""
+    import re
+
+    if not isinstance(text, str) or not re.fullmatch(r"[+-]?[0-9]{1,4000}", text):
+        raise argparse.ArgumentTypeError(f"expected an integer of ASCII digits, got {_quoted(text)}")
+    return int(text)
+
+
+def _ascii_float(text: str) -> float:
+    """A number option: an ASCII decimal number (no other digits, underscores, spaces, nan or inf)."""
+    import math
+    import re
+
+    if not isinstance(text, str) or not re.fullmatch(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]{1,6})?", text[:400]) \
+            or len(text) > 400:
+        if isinstance(text, str) and text.strip().lstrip("+-").lower() in ("nan", "inf", "infinity"):
+            raise argparse.ArgumentTypeError(f"expected a finite number of ASCII digits, got {_quoted(text)}")
+        raise argparse.ArgumentTypeError(f"expected a number of ASCII digits, got {_quoted(text)}")
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {_quoted(text)}")
+    return value
+
+
+def _quoted(text) -> str:
+    from .config.reader import shorten
+
+    return shorten(text)
+
+
+def _ascii_numbers(parser: argparse.ArgumentParser) -> None:
+    """Every ``type=int`` / ``type=float`` option of every command takes ASCII digits only."""
+    for action in parser._actions:  # noqa: SLF001 - argparse has no public accessor
+        if action.type is int:
+            action.type = _ascii_int
+        elif action.type is float:
+            action.type = _ascii_float
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for sub in set(action.choices.values()):
+                _ascii_numbers(sub)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="optdesign",
@@ -108,6 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     registered.sort(key=lambda t: (_ORDER.index(t[0]) if t[0] in _ORDER else len(_ORDER), t[0]))
     for _, reg in registered:
         reg(sub)
+    _ascii_numbers(parser)
     return parser
 
 
@@ -129,6 +173,7 @@ def _tolerant_output() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .io import UnsafeDestination
     from .names import OutsideRoot
     from .workspace import WorkspaceTooLarge
 
@@ -148,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         return _error(str(exc))
     except UsageError as exc:
         return _error(str(exc))
-    except (WorkspaceTooLarge, OutsideRoot) as exc:
+    except (WorkspaceTooLarge, OutsideRoot, UnsafeDestination) as exc:
         return _error(str(exc))
     except KeyboardInterrupt:
         print("optdesign: interrupted", file=sys.stderr)

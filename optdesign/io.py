@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,26 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
+class UnsafeDestination(Exception):
+    """A file to write is a symbolic link, or exists and is not a regular file:
+    nothing is written (the message is one line naming the file)."""
+
+
+def check_destination(path: str | os.PathLike) -> None:
+    """Raise :class:`UnsafeDestination` unless ``path`` is absent or a regular
+    file (``lstat``: a symbolic link is never followed, even to a regular file)."""
+    try:
+        st = os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError as exc:
+        raise UnsafeDestination(f"{os.fsdecode(path)!s}: cannot write ({exc.strerror or type(exc).__name__})") from None
+    if stat.S_ISLNK(st.st_mode):
+        raise UnsafeDestination(f"{os.fsdecode(path)!s}: is a symbolic link; refusing to write through or over it")
+    if not stat.S_ISREG(st.st_mode):
+        raise UnsafeDestination(f"{os.fsdecode(path)!s}: exists and is not a regular file; refusing to replace it")
+
+
 def atomic_write_bytes(path: str | os.PathLike, data: bytes, durable: bool = True) -> None:
     """Write ``data`` to ``path`` through a temporary file and a rename.
 
@@ -34,8 +55,13 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, durable: bool = Tru
     (fsync), which matters only if the operating system itself goes down;
     per-generation checkpoints skip it for speed: after an operating-system
     crash such a checkpoint may be older than the last generation or, on some
-    file systems, empty, and resuming then says so instead of loading it."""
+    file systems, empty, and resuming then says so instead of loading it.
+
+    A destination that is a symbolic link or not a regular file is refused
+    (:class:`UnsafeDestination`) before anything is written; the rename itself
+    replaces a name, never writes through a link planted after that check."""
     path = Path(path)
+    check_destination(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:

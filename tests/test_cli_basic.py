@@ -57,7 +57,7 @@ def test_ik_unreachable_pose(capsys):
 @pytest.mark.parametrize("args,words", [
     (["ik", PAPER, "0", "0"], "expected 3 values"),
     (["fk", PAPER, "--design", "nope", "0.4", "0.4", "0.4"], "no design named 'nope'"),
-    (["ik", PAPER, "nan", "0", "0.5"], "expected finite numbers"),
+    (["ik", PAPER, "nan", "0", "0.5"], "expected a finite number"),
     (["atlas", PAPER, "--resolution", "1"], "--resolution"),
     (["evaluate", PAPER, "--design", "middle"], "no design named 'middle'"),
 ])

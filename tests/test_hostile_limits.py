@@ -37,7 +37,7 @@ def workspaces(draw):
     if name == "sps_s.yaml":
         ws["unit"] = "deg"
     for a in (axes[2:] if cylinder else axes):
-        lo = draw(st.floats(-1.0, 1.0))
+        lo = draw(st.floats(-1.0, 1.0, allow_subnormal=False))
         width = draw(st.sampled_from([0.0, 1e-6, 0.01, 0.1, 1.0, 100.0]))
         ws["axes"][a] = lo if width == 0 else [lo, lo + width]
     if cylinder:
@@ -106,7 +106,7 @@ def test_one_limit_on_workspace_points():
             want = "workspace.step"
         elif ws.get("points_per_axis", 0) > MAX_POINTS:
             want = "workspace.points_per_axis"
-        elif "step" in ws and ws["step"] * scale == 0:
+        elif "step" in ws and (ws["step"] * scale == 0 or ws["step"] < 1e-12):   # a positive value below 1e-12 is refused
             want = "workspace.step"
         elif not grid and ws["points"] > MAX_POINTS:
             want = "workspace.points"

@@ -171,6 +171,11 @@ def test_units_in_labels_and_degrees(noref_run, noref_report):
     for data, layout in _figures(html):
         if not data or data[0].get("type") in ("splom", "parcoords"):
             continue
+        if all(tr.get("type") in ("scatter3d", "mesh3d") for tr in data):  # a 3-D scene names its three axes
+            scene = layout.get("scene", {})
+            for a in ("xaxis", "yaxis", "zaxis"):
+                assert ((scene.get(a) or {}).get("title") or {}).get("text"), (layout.get("title"), a)
+            continue
         for tr in data:
             ax = layout.get("yaxis" + tr.get("yaxis", "y")[1:], {})
             assert (ax.get("title") or {}).get("text"), layout.get("title")
@@ -304,9 +309,13 @@ def test_report_never_writes_through_a_symlink(noref_run, tmp_path):
     outside.write_text("keep")
     (folder / "report.html").unlink(missing_ok=True)
     (folder / "report.html").symlink_to(outside)
-    out = write_report_html(folder)
-    assert out == folder.resolve() / "report.html" and not out.is_symlink()
-    assert outside.read_text() == "keep"
+    from optdesign.io import UnsafeDestination
+
+    with pytest.raises(UnsafeDestination, match="symbolic link"):   # refused: neither followed nor replaced
+        write_report_html(folder)
+    assert (folder / "report.html").is_symlink() and outside.read_text() == "keep"
+    rc, out, err = run_cli_in(tmp_path, ["report", str(folder)])
+    assert rc == 2 and err.count("\n") == 1 and "report.html" in err and outside.read_text() == "keep"
 
 
 def test_compare_overlays_fronts_and_writes_only_out(noref_run, repro_copy, tmp_path):

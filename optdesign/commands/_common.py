@@ -48,6 +48,47 @@ def check_out_root(path: str, option: str = "--out") -> None:
             raise UsageError(f"{option}: {plain(path)} {what}")
 
 
+def check_out_file(path: str, option: str = "--out", suffixes=(".html", ".htm"), kind: str = "HTML") -> None:
+    """An output file given on the command line: named ``*<suffix>``, in an
+    existing folder, and, if it exists, a regular file (never a symbolic link,
+    which is not followed) that already holds ``kind`` (an HTML page starts with
+    ``<!DOCTYPE html`` or ``<html``), so that nothing else is ever overwritten."""
+    from pathlib import Path
+
+    from ..config.reader import plain, shorten
+
+    if not path or "\x00" in path:
+        raise UsageError(f"{option}: expected a file name ending in {suffixes[0]}, got {shorten(path)}")
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise UsageError(f"{option}: expected a file name ending in {suffixes[0]}, got {shorten(path)}")
+    try:
+        st = os.lstat(p)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None
+    except OSError as exc:
+        raise UsageError(f"{option}: cannot use {plain(path)} ({exc.strerror or type(exc).__name__})") from None
+    if st is not None:
+        if stat.S_ISLNK(st.st_mode):
+            raise UsageError(f"{option}: {plain(path)} is a symbolic link; refusing to write through or over it")
+        if stat.S_ISDIR(st.st_mode):
+            raise UsageError(f"{option}: {plain(path)} is a folder; expected an {kind} file")
+        if not stat.S_ISREG(st.st_mode):
+            raise UsageError(f"{option}: {plain(path)} exists and is not a regular file")
+        if kind == "HTML" and st.st_size:
+            fd = os.open(p, os.O_RDONLY | os.O_NOFOLLOW | getattr(os, "O_NONBLOCK", 0))
+            try:
+                head = os.read(fd, 512)
+            finally:
+                os.close(fd)
+            start = head.lstrip(b"\xef\xbb\xbf \t\r\n").lower()
+            if not (start.startswith(b"<!doctype html") or start.startswith(b"<html")):
+                raise UsageError(f"{option}: {plain(path)} exists and is not an HTML page; refusing to overwrite it")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"{option}: {plain(str(parent))}: no such folder")
+
+
 def make_out_root(path: str, option: str = "--out") -> None:
     """Create the output root (just before the first write)."""
     from pathlib import Path

@@ -60,7 +60,11 @@ def _seed_list(text: str) -> list[int]:
         raise UsageError(f"--seed-list: expected at least one seed (integers separated by commas), got {shorten(text)}")
     if any(not p for p in parts):
         raise UsageError(f"--seed-list: an empty entry in {shorten(text)}; expected integers separated by commas")
+    import re
+
     try:
+        if not all(re.fullmatch(r"[+-]?[0-9]{1,20}", p) for p in parts):  # ASCII digits only ('٣' is not 3)
+            raise ValueError(text)
         seeds = [int(p) for p in parts]
     except ValueError:
         raise UsageError(f"--seed-list: expected integers separated by commas, got {shorten(text)}") from None

@@ -18,17 +18,12 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ._common import UsageError
+    from ._common import UsageError, check_out_file
     from ..report_html import write_compare_html
     from ..runs import RunFolderError
 
+    check_out_file(args.out, "--out")
     out = Path(args.out)
-    if out.suffix.lower() not in (".html", ".htm"):
-        raise UsageError(f"--out: expected a file name ending in .html, got {args.out!r}")
-    if out.is_dir():
-        raise UsageError(f"--out: {args.out} is a folder; expected an .html file")
-    if not out.resolve().parent.is_dir():
-        raise UsageError(f"--out: {out.resolve().parent}: no such folder")
     if len(args.run_dirs) < 2:
         raise UsageError("compare: expected at least two RUN_DIRs")
     try:

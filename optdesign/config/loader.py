@@ -19,7 +19,7 @@ from typing import Any, Mapping
 
 from ..names import name_problem, safe_default_name
 from . import yamlsafe
-from .reader import UNITS, ConfigError, Reader, join, show, suggest
+from .reader import SMALLEST, UNITS, ConfigError, Reader, join, show, suggest
 from .schema import Config, DesignVariable, IndexSpec
 from .sections import optimizer_section, workspace_section
 
@@ -210,6 +210,8 @@ def _units(r: Reader, v: Mapping, path: str, decl) -> float:
 
 def _check_value(r: Reader, decl, x: float, path: str) -> None:
     problem = decl.problem(x) if decl is not None else None
+    if problem is None and decl is not None and decl.low == 0.0 and decl.low_open and 0 < x < SMALLEST:
+        problem = f"expected {decl.range_text()} of sensible size (at least {SMALLEST:g} in SI), got {x:g}"
     if problem:
         r.fail(path, problem)
 

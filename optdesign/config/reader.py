@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 import reprlib
+import sys
 from typing import Any, Mapping
 
 from ..mechanisms.params import UNIT_SCALES
@@ -67,10 +68,12 @@ class Reader:
             self.fail(path, f"expected a number of sensible size, got {show(value)}")
         if not math.isfinite(x):
             self.fail(path, f"expected a finite number, got {shorten(value)}")
-        if abs(x) > 1e12:
+        if abs(x) > 1e12 or 0 < abs(x) < sys.float_info.min:   # huge, or subnormal (1e-320)
             self.fail(path, f"expected a number of sensible size, got {show(value)}")
         if positive and x <= 0:
             self.fail(path, f"expected a positive number, got {shorten(value)}")
+        if positive and x < SMALLEST:
+            self.fail(path, f"expected a positive number of sensible size (at least {SMALLEST:g}), got {show(value)}")
         if nonneg and x < 0:
             self.fail(path, f"expected a non-negative number, got {shorten(value)}")
         return x
@@ -109,6 +112,12 @@ class Reader:
         if value is None:
             return None
         return self.string(value, path, choices=set(allowed))
+
+
+#: the smallest positive physical value (a length, mass, stiffness ...) of sensible
+#: size, as 1e12 is the largest; a subnormal number (below 2.2e-308, such as
+#: 1e-320) is refused wherever a number is read
+SMALLEST = 1e-12
 
 
 def tname(v: Any) -> str:

@@ -186,6 +186,18 @@ class Mechanism:
     def mass_matrix(self, X: np.ndarray) -> np.ndarray:
         raise NotImplementedError(f"mechanism {self.name!r} has no dynamic model")
 
+    # ------------------------------------------------------------------ drawing
+    def drawing(self, X: np.ndarray) -> dict | None:
+        """The drawable points of one design at poses X (N, dof), from the
+        mechanism's own inverse kinematics: ``base`` (N, k, 3) the base's
+        outline, ``platform`` (N, m, 3) the platform's outline (closed polygon),
+        ``joints`` (N, j, 3), ``legs`` a list of (N, n_pts, 3) chains (base
+        joint, intermediate joints, platform joint), ``rods`` (N, r, 2, 3) the
+        rigid rods of fixed length ``rod_lengths`` (r,) (may be empty), all in
+        m; NaN where a pose is not reachable.  None: this mechanism has no
+        drawing."""
+        return None
+
     # ------------------------------------------------------------------ indices
     def global_statistics(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's answer for these requests over the points X (N, dof):

@@ -145,6 +145,18 @@ class SpsS(Mechanism):
         l = np.linalg.norm(L, axis=-1)
         return {"b": b, "L": L, "l": l, "q": L / l[..., None], "Q": Q}
 
+    def drawing(self, X: np.ndarray) -> dict:
+        """The drawable points of one design at orientations X (N, 3) (see
+        :meth:`Mechanism.drawing`): legs B_i -> b_i (length l_i, the actuator
+        value), the central spherical joint at the origin, the platform triangle b_i."""
+        X = np.asarray(X, dtype=float)
+        g = self.legs(X)
+        B = np.broadcast_to(self.base_points(), g["b"].shape)
+        legs = [np.stack([B[:, i], g["b"][:, i]], axis=1) for i in range(3)]
+        centre = np.zeros((X.shape[0], 1, 3))
+        return {"base": B.copy(), "platform": g["b"], "joints": np.concatenate([B, g["b"], centre], 1),
+                "legs": legs, "rods": np.zeros((X.shape[0], 0, 2, 3)), "rod_lengths": np.zeros(0)}
+
     # ------------------------------------------------------------------ kinematics
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Leg lengths (eq. 2-3), (..., N, 3)."""

@@ -188,9 +188,10 @@ def build_compare(runs: list[RunData]) -> str:
 
 def write_compare_html(folders, out: str | os.PathLike) -> Path:
     """Write the comparison page of ``folders`` (finished run folders) to the
-    file ``out`` (nothing else is written) and return its resolved path."""
+    file ``out`` (nothing else is written; a symbolic link there is refused,
+    never followed) and return its path made absolute."""
     runs = [load_run(f) for f in folders]
-    target = Path(out).resolve()
+    target = Path(os.path.abspath(out))
     try:
         text = build_compare(runs)
     except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # a hand-edited or damaged folder

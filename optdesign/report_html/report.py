@@ -10,6 +10,7 @@ from .atlas import DEFAULT_RESOLUTION, atlas_map
 from .figures import atlas_figures, convergence_figures, esc, fmt, front_parcoords, front_splom, front_title
 from .page import Page, plotly_js_version
 from .rundata import RunData, load_run
+from .views import COPY_SCRIPT, alternatives, copy_table, mechanism_figure, workspace_figure
 from .tables import (index_table, manifest_table, normalization_table, objective_text, optimum_table,
                      placement_table, reference_table)
 from ..units import index_unit, variable_unit
@@ -98,6 +99,7 @@ def _front_section(page: Page, run: RunData) -> None:
                   "by at least that much. Hover a point for its parameters and indices; drag to select.</p>")
         page.add_figure(front_splom(run, front))
         page.add_figure(front_parcoords(run, front))
+        page.html(copy_table(run, front))
 
 
 def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> str:
@@ -131,6 +133,7 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
     if any(f.size for f in run.fronts.values()):
         page.section("fronts", "Pareto fronts")
         _front_section(page, run)
+    _views_section(page, run)
     page.section("atlas", "Atlases")
     amap = atlas_map(run.cfg, run.results["optimum"], atlas_resolution)
     if amap is None:
@@ -147,6 +150,28 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
     page.section("manifest", "Run")
     page.html(manifest_table(run))
     return page.render(_header(run), _footer(page))
+
+
+def _views_section(page: Page, run: RunData) -> None:
+    """The mechanism in 3-D (optimum and the best Pareto alternatives) and W in 3-D."""
+    page.section("mechanism", "The mechanism in 3-D")
+    page.html(f"<script>{COPY_SCRIPT}</script>")   # the copy buttons of the fronts' tables
+    fig = mechanism_figure(run, run.results["optimum"], "The weighted-sum optimum")
+    if fig is None:
+        page.html(f"<p>The mechanism <code>{esc(run.cfg.mechanism)}</code> has no drawing.</p>")
+        return
+    page.html("<p class=note>Drawn from the mechanism's own inverse kinematics at the centre of W, the corners of its "
+              "box and the sample pose where the Jacobian is worst conditioned (the slider picks the pose). Base: grey, "
+              "legs and rods: blue, joints: red, platform: orange; lengths in m.</p>")
+    page.add_figure(fig)
+    alts = [(t, d) for t, d in alternatives(run)]
+    if alts:
+        page.html("<h3>The best Pareto alternatives</h3>")
+        figs = [mechanism_figure(run, d, t, height=480) for t, d in alts]
+        page.html('<div class="grid2">' + "".join(page.figure(f) for f in figs if f is not None) + "</div>")
+    wfig = workspace_figure(run, run.results["optimum"])
+    if wfig is not None:
+        page.add_figure(wfig)
 
 
 def _footer(page: Page) -> str:

@@ -14,7 +14,9 @@ tuples and evaluated by :func:`evaluate`; user text is never given to
 Anything else (attributes, subscripts, comparisons, keywords, strings,
 lambdas ...) is a one-line error.  Expressions are bounded: at most
 :data:`MAX_CHARS` characters, :data:`MAX_NODES` nodes and depth
-:data:`MAX_DEPTH`.
+:data:`MAX_DEPTH` (parentheses, calls, unary signs and operators of another
+precedence nest; a chain such as ``a + b - c + d`` or ``a * b / c`` is one
+level however long).
 
 Trees are ``("num", v)``, ``("name", s)``, ``("neg", a)``,
 ``("bin", op, a, b)`` with op one of ``+ - * / **`` and
@@ -27,6 +29,7 @@ from __future__ import annotations
 import ast
 import difflib
 import math
+import sys
 from typing import Any, Mapping
 
 import numpy as np
@@ -43,6 +46,8 @@ FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "ata
              "abs": 1, "deg": 1}
 CONSTANTS = {"pi": math.pi}
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+#: precedence levels: a left-associative chain within one level counts as one level of nesting
+_LEVEL = {ast.Add: "+", ast.Sub: "+", ast.Mult: "*", ast.Div: "*", ast.Pow: "**"}
 
 
 class ExprError(ValueError):
@@ -64,7 +69,7 @@ def parse(value: Any, names) -> tuple:
             x = float(value)
         except OverflowError:
             raise ExprError("expected a number of sensible size") from None
-        if not math.isfinite(x) or abs(x) > 1e12:
+        if not math.isfinite(x) or abs(x) > 1e12 or 0 < abs(x) < sys.float_info.min:
             raise ExprError(f"expected a finite number of sensible size, got {value!r}")
         return ("num", x)
     if not isinstance(value, str):
@@ -104,6 +109,8 @@ def _convert(node, text: str, allowed: set, count: list, depth: int) -> tuple:
             raise ExprError(f"number too large in {_show(text)}") from None
         if not math.isfinite(x) or abs(x) > 1e12:
             raise ExprError(f"number too large in {_show(text)}")
+        if 0 < abs(x) < sys.float_info.min:
+            raise ExprError(f"subnormal number (below 2.2e-308) in {_show(text)}")
         return ("num", x)
     if isinstance(node, ast.Name):
         if node.id in CONSTANTS:
@@ -122,7 +129,10 @@ def _convert(node, text: str, allowed: set, count: list, depth: int) -> tuple:
             return a
         return ("num", -a[1]) if a[0] == "num" else ("neg", a)
     if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
-        a = _convert(node.left, text, allowed, count, depth + 1)
+        # a chain of one precedence level (a + b - c + ..., a * b / c ...) is flat:
+        # Python parses it left-associatively, so its left operand does not nest deeper
+        flat = isinstance(node.left, ast.BinOp) and _LEVEL.get(type(node.left.op)) == _LEVEL.get(type(node.op)) != "**"
+        a = _convert(node.left, text, allowed, count, depth + (0 if flat else 1))
         b = _convert(node.right, text, allowed, count, depth + 1)
         return ("bin", _BINOPS[type(node.op)], a, b)
     if isinstance(node, ast.Call):

@@ -129,6 +129,13 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         velocity in the base frame (for the angles)."""
         return self._jac(self.leg_state(X), "angular_velocity")
 
+    def drawing(self, X: np.ndarray) -> dict:
+        """The drawable points of one design at poses X (N, dof) (see
+        :meth:`Mechanism.drawing`): each leg from its base point A through the
+        actuated point (slider or crank tip; a strut goes straight) to its
+        platform point b; the rods (of length ``l``) from the actuated point to b."""
+        return _drawing(self, X)
+
     def forward(self, Q: np.ndarray, X0: np.ndarray | None = None) -> np.ndarray:
         """Forward kinematics (..., N, dof): the pose with these actuator values
         nearest the start X0 (default: the description's home pose) in the
@@ -286,6 +293,23 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         from .checks import check_designs
 
         return check_designs(cls, parameters, designs)
+
+
+def _drawing(mech, X) -> dict:
+    st = mech.leg_state(np.asarray(X, dtype=float))
+    C = mech.constants
+    b, a = st["b"], st["a"]                                              # (N, n, 3)
+    bad = ~st["reachable"]
+    b = np.where(bad[:, None, None], np.nan, b)
+    A = np.broadcast_to(C.A, b.shape)
+    kind = np.broadcast_to(np.asarray(C.kind), b.shape[1:2])
+    legs = [np.stack([A[:, i], b[:, i]] if kind[i] == 2 else [A[:, i], a[:, i], b[:, i]], axis=1)
+            for i in range(b.shape[1])]
+    rod = [i for i in range(b.shape[1]) if kind[i] != 2]
+    rods = np.stack([a[:, rod], b[:, rod]], axis=-2) if rod else np.zeros((b.shape[0], 0, 2, 3))
+    Lr = np.broadcast_to(np.asarray(C.Lr, float), kind.shape)
+    return {"base": A.copy(), "platform": b, "joints": np.concatenate([A, a, b], 1), "legs": legs,
+            "rods": rods, "rod_lengths": np.array([float(Lr[i]) for i in rod])}
 
 
 def _param_table(desc: Description) -> tuple:

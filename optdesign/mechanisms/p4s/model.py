@@ -314,5 +314,26 @@ class P4S(Mechanism):
         return {"platform": np.broadcast_to(X, dpt.shape[:-2] + (3,)), "sliders": c, "rods": rods,
                 "rod_axes": st["n"], "c": c, "d": dpt}
 
+    def drawing(self, X: np.ndarray) -> dict:
+        """The drawable points of one design at platform positions X (N, 3) (see
+        :meth:`Mechanism.drawing`): each leg runs from the rail's start u_i
+        through the slider c_i to the top midpoint d_i; the rods are the two long
+        sides of each parallelogram (length L); the platform is the hexagon of
+        the six top joints d_i -+ (d / 2) t_i."""
+        X = np.asarray(X, dtype=float)
+        b = self.body_positions(X)
+        c, dpt = b["c"], b["d"]                                            # (N, 3, 3)
+        half = 0.5 * np.asarray(self.d, float) * T                          # (3, 3)
+        u = np.broadcast_to(np.asarray(self.r_b, float) * E, c.shape)
+        bad = ~np.all(np.isfinite(c), axis=(-1, -2))
+        top = np.stack([dpt - half, dpt + half], axis=-2)                   # (N, 3, 2, 3)
+        bottom = np.stack([c - half, c + half], axis=-2)
+        top = np.where(bad[:, None, None, None], np.nan, top)
+        rods = np.stack([bottom, top], axis=-2).reshape(X.shape[0], 6, 2, 3)
+        legs = [np.stack([u[:, i], c[:, i], dpt[:, i]], axis=1) for i in range(3)]
+        return {"base": u.copy(), "platform": top.reshape(X.shape[0], 6, 3),
+                "joints": np.concatenate([u, c, top.reshape(X.shape[0], 6, 3), bottom.reshape(X.shape[0], 6, 3)], 1),
+                "legs": legs, "rods": rods, "rod_lengths": np.full(6, float(self.L))}
+
 
 from . import compiled  # noqa: E402  (the compiled path imports this module's helpers)
