@@ -103,3 +103,95 @@ def test_evaluate_shows_the_workspace_in_the_configs_units(tmp_path):
     assert "0.1745" not in first
     rc, out, err = run_cli_in(tmp_path, ["evaluate", str(ROOT / "configs" / "p4s_paper.yaml"), "--design", "before"])
     assert "x in [-0.05 m, 0.05 m]" in out.splitlines()[0]
+
+
+# ---------------------------------------------------------------- progress lines
+def _tokens_kept_whole(line: str, full: str) -> bool:
+    """Every field of ``line`` is a field of ``full``; one cut with … ends at a word boundary."""
+    import re
+
+    src = full.split()
+    for tok in line.split():
+        if tok in src or re.fullmatch(r"\[[#.]+\]", tok):   # a field, or the bar (its width follows the line's)
+            continue
+        if not tok.endswith("…"):
+            return False
+        head = tok[:-1]
+        if head and not any(s == head or s.startswith(head + "_") for s in src):
+            return False
+        if any(c.isdigit() for c in head) and head not in src:
+            return False
+    return True
+
+
+@pytest.mark.parametrize("width", range(20, 101, 4))
+def test_stage_and_run_lines_never_cut_inside_a_number(width):
+    from optdesign.optimize.progress import fit_line, stage_line
+
+    label = "[3/10] single_stiffness_max (worker)"
+    best = "stiffness = 0.0005307 N/m"
+    line = stage_line(label, 13, 40, best, 75.0, width)
+    assert len(line) <= width
+    full = stage_line(label, 13, 40, best, 75.0, 400)
+    assert _tokens_kept_whole(line, full), (width, line)
+    assert ("0.0005307" in line) == ("stiffness" in line)   # the value goes with its name
+    if "0.0005307" in line:
+        assert "0.0005307 N/m" in line
+    run = fit_line(["run: 5/10 stages done", "63%", "1:02 elapsed", "ETA 0:41"], width, shrink=None, drop=[2, 1])
+    assert len(run) <= width and _tokens_kept_whole(run, "run: 5/10 stages done 63% 1:02 elapsed ETA 0:41")
+    if width >= 32:
+        assert "ETA 0:41" in run and "5/10" in run
+
+
+def _progress(monkeypatch, width):
+    import io
+
+    from optdesign.optimize.progress import Progress
+
+    monkeypatch.setenv("COLUMNS", str(width))
+    buf = io.StringIO()
+    p = Progress(True, stream=buf)
+    return p, buf
+
+
+def test_compile_notice_is_folded_at_words(monkeypatch):
+    import re
+
+    from optdesign.optimize.progress import COMPILE_NOTICE
+
+    p, buf = _progress(monkeypatch, 60)
+    try:
+        p.compiling()
+    finally:
+        p.close()
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", buf.getvalue())
+    lines = [ln.strip() for ln in text.replace("\r", "\n").split("\n") if ln.strip()]
+    assert all(len(ln) <= 60 for ln in lines)
+    words = " ".join(lines).split()
+    assert words == COMPILE_NOTICE.split(), lines        # every word whole, none left out
+
+
+def test_run_line_counts_resumed_stages_and_has_an_eta_from_the_prescan(monkeypatch):
+    p, _ = _progress(monkeypatch, 100)
+    try:
+        plan = [("prescan", 1, 1000)] + [(f"s{i}", 10, 100) for i in range(9)]
+        p.plan(plan, done=["prescan", "s0", "s1", "s2", "s3"])
+        line = p._run_line(100)
+        assert "5/10 stages done" in line
+        assert int(line.split("%")[0].split()[-1]) == round(100 * (1000 + 4 * 1000) / 10000)   # 50 %
+        # a fresh run: the pre-scan's first batch gives an ETA
+        p.plan(plan)
+        p._t0 -= 10.0
+        assert "ETA …" in p._run_line(100)
+        p.start("prescan", 1000)
+        p.update(250)
+        line = p._run_line(100)
+        assert "ETA …" not in line and "ETA " in line, line
+        eta = line.split("ETA ")[1].split(":")
+        assert 60 * int(eta[0]) + int(eta[1]) == pytest.approx(10.0 * (10000 - 250) / 250, abs=3)
+        p.finish()
+        p.phase("writing report: results.md and its plots ...", "writing report …")
+        line = p._run_line(100)
+        assert "writing report …" in line and "ETA" not in line
+    finally:
+        p.close()

@@ -242,7 +242,8 @@ def test_no_progress_when_not_a_terminal(tmp_path):
                         "--no-pareto"], cwd=tmp_path, capture_output=True, text=True,
                        env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=240)
     assert p.returncode == 0 and p.stderr == "", p.stderr
-    assert len(p.stdout.strip().splitlines()) == 1
+    lines = p.stdout.strip().splitlines()     # the summary line, then the paths of report.html and results.md
+    assert len(lines) == 3 and lines[1].startswith("report: ") and lines[2].startswith("results: ")
 
 
 def test_tables_fit_the_terminal(tmp_path):

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import time
 
 COMMAND = "run"
 
@@ -19,12 +20,14 @@ def register(sub):
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (the optimum in the config's units and SI, the global indices, "
                         "the files) instead of the summary line")
+    p.add_argument("--open", action="store_true",
+                   help="open the run's report.html in the web browser at the end (a line says so where none is available)")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="processes running the GA stages at once (default: the CPUs available); results do not depend on it")
     p.set_defaults(func=run)
 
 
-def run_json(res, cfg=None) -> dict:
+def run_json(res, cfg=None, wall: float | None = None) -> dict:
     """A finished run as JSON: what a script reads from it."""
     from ..optimize.runner import config_of_folder
     from ..units import index_unit, variable_unit
@@ -40,6 +43,8 @@ def run_json(res, cfg=None) -> dict:
            "evaluations": r.get("evaluations"), "wall_time_s": r.get("wall_time_s"),
            "files": {n: str(path / n) for n in ("results.json", "results.md", "report.html", "optimum.yaml")
                      if (path / n).exists()}}
+    if wall is not None:
+        out["wall_time_total_s"] = round(wall, 3)   # the whole run, the report's writing included
     if r.get("pareto"):
         out["pareto"] = {k: {"front_size": p["front_size"], "hypervolume": p["hypervolume"]} for k, p in r["pareto"].items()}
     return out
@@ -55,6 +60,7 @@ def execute(args, after=None, cfg=None) -> int:
     from ..optimize.workers import Interrupted, StopRequest, default_jobs
     from ..runs import RunFolderError
 
+    t_start = time.perf_counter()
     progress = Progress(False if args.quiet else None)
     if args.resume and args.config:
         raise UsageError("run: give a CONFIG or --resume RUN_DIR, not both")
@@ -94,12 +100,18 @@ def execute(args, after=None, cfg=None) -> int:
             print(f"optdesign: run failed: {exc}", file=sys.stderr)
             return 1
         stop.completed = done = True
+        wall = getattr(res, "wall_before_s", 0.0) + time.perf_counter() - t_start
         if getattr(args, "json", False):
             from ._common import json_text
 
-            print(json_text(run_json(res, cfg)))
+            print(json_text(run_json(res, cfg, wall)))
         else:
-            print(summary_line(res, cfg))
+            print(summary_line(res, cfg, wall))
+            for what, name in (("report", "report.html"), ("results", "results.md")):
+                if (res.folder.path / name).exists():
+                    print(f"{what}: {res.folder.path / name}")
+        if getattr(args, "open", False):
+            open_report(res.folder.path / "report.html", sys.stderr if getattr(args, "json", False) else sys.stdout)
         if after is not None:
             after(res)
         return 0
@@ -111,6 +123,23 @@ def execute(args, after=None, cfg=None) -> int:
             # an ignored signal stays ignored), so its status stays the manifest's
             for sig in (signal.SIGINT, signal.SIGTERM):
                 signal.signal(sig, signal.SIG_IGN)
+
+
+def open_report(path, out) -> bool:
+    """Open report.html in the web browser (Python's webbrowser); a line says
+    what happened, also where no browser is available."""
+    import webbrowser
+
+    if not path.exists():
+        print(f"--open: no report.html in {path.parent}", file=out)
+        return False
+    try:
+        opened = webbrowser.open(path.resolve().as_uri())
+    except webbrowser.Error:
+        opened = False
+    print(f"opened {path} in the web browser" if opened else
+          f"--open: no web browser available; open {path} yourself", file=out)
+    return opened
 
 
 def run(args) -> int:

@@ -114,7 +114,18 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
     """Run (or resume) stage ``i`` of the plan and write its files."""
     evaluator = evaluator or Evaluator.from_config(cfg, ws)
     if st.kind == "prescan":
-        res, rows = run_prescan(evaluator, prescan_size(cfg.optimizer), stage_seed(seed, i))
+        prog = progress or Progress(False)
+
+        def batch(k, total):
+            if k == 0:   # the stage line: designs evaluated of those scanned (the corners included)
+                prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
+            else:
+                prog.update(k, None)
+        try:
+            res, rows = run_prescan(evaluator, prescan_size(cfg.optimizer), stage_seed(seed, i), on_batch=batch)
+            prog.update(res["evaluations"], res)
+        finally:
+            prog.finish()
         folder.stage_dir(st.name)
         folder.write_text(f"stages/{st.name}/population.csv", rows_csv(_display(cfg, rows, None)))
         folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
@@ -161,12 +172,17 @@ def describe_result(cfg: Config, st: Stage, res: dict) -> str:
         return _f_text(res["objective"])
     if st.kind == "pareto":
         return f"{res.get('front_size', '?')} non-dominated"
+    if st.kind == "prescan" and "feasible_designs" in res:
+        return f"{res['feasible_designs']} of {res.get('evaluations', '?')} designs feasible"
     return ""
 
 
 def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
-    """(generations, population) of a stage: its share of the run's work."""
+    """(generations, population) of a stage: its share of the run's work (the
+    pre-scan: one generation of its designs)."""
     opt = cfg.optimizer
+    if st.kind == "prescan":
+        return 1, prescan_size(opt)
     if st.kind == "pareto":
         return opt.pareto_generations, opt.pareto_population
     return opt.generations, opt.population
@@ -212,6 +228,7 @@ class PipelineResult:
     folder: RunFolder
     results: dict
     stages: dict = field(default_factory=dict)
+    wall_before_s: float = 0.0     # the run's wall time in earlier invocations (a resumed run)
 
 
 def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None, pareto: bool = True,
@@ -298,6 +315,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             stop.check()
         pool.release()   # the workers exit while the results and the report are written
         stages = {st.name: stages[st.name] for st in plan}
+        progress.phase("final results: the optimum and the extremes checked and polished ...", "final results …")
         results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish)
         wall = round(wall_before + time.perf_counter() - t0, 3)
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
@@ -305,11 +323,13 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         folder.write_json("results.json", results)
         from .report import write_report
 
+        progress.phase("writing report: results.md and its plots ...", "writing report …")
         write_report(cfg, folder, results, stages)
         stop.completed = True   # from here a signal changes nothing: the manifest is about to say complete
         folder.complete(wall_time_s=wall, evaluations=evals)
+        progress.phase("writing report: report.html ...", "writing report.html …")
         _html_report(folder)
-        return PipelineResult(folder, results, stages)
+        return PipelineResult(folder, results, stages, wall_before_s=wall_before)
     except KeyboardInterrupt as exc:
         if not isinstance(exc, Interrupted):
             exc = Interrupted(signal.SIGINT)

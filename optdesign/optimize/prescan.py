@@ -39,10 +39,13 @@ def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.nda
     return xl + (xu - xl) * U
 
 
-def run_prescan(evaluator, n: int, seed: int) -> tuple[dict, list[dict]]:
+def run_prescan(evaluator, n: int, seed: int, on_batch=None) -> tuple[dict, list[dict]]:
     """(result, rows): the stage result (the feasible designs and their values)
-    and one CSV row per design scanned."""
+    and one CSV row per design scanned; ``on_batch(done, total)`` before the
+    first batch and after each (the designs evaluated so far: the run's progress)."""
     X = prescan_designs(evaluator.xl, evaluator.xu, n, seed)
+    if on_batch is not None:
+        on_batch(0, len(X))
     vals = {k: [] for k in evaluator.index_names + list(evaluator.extra)}
     cons = {k: [] for k in evaluator.constraint_names}
     for i in range(0, len(X), BATCH):
@@ -52,6 +55,8 @@ def run_prescan(evaluator, n: int, seed: int) -> tuple[dict, list[dict]]:
             vals[k].append(np.asarray(r["values"][k], dtype=float))
         for k in cons:
             cons[k].append(np.asarray(r["constraints"][k], dtype=float))
+        if on_batch is not None:
+            on_batch(min(i + BATCH, len(X)), len(X))
     vals = {k: np.concatenate(v) for k, v in vals.items()}
     cons = {k: np.concatenate(v) for k, v in cons.items()}
     feas = np.all([v <= 0 for v in cons.values()], axis=0) & np.all([np.isfinite(v) for v in vals.values()], axis=0)

@@ -8,7 +8,11 @@ the stream is not a terminal.  A worker process reports its stage through a
 queue (:class:`RemoteProgress`); the main process shows it.
 
 The ETA of the run: the work still to do (generations x population of the
-stages not done) at the rate this process has seen so far.
+stages not done, the pre-scan's designs) at the rate this process has seen so
+far, from the pre-scan's first batch on; the percentage counts the stages a
+resumed run finished before.  After the stages, the final phases (results,
+report) are lines of their own, and the run line names the phase instead of
+an ETA.  Lines are cut at field boundaries, never inside a number or word.
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ import sys
 import threading
 import time
 
-__all__ = ["Progress", "RemoteProgress", "CountProgress", "stage_line", "fit_line", "COMPILE_NOTICE"]
+__all__ = ["Progress", "RemoteProgress", "CountProgress", "stage_line", "fit_line", "wrap_line", "COMPILE_NOTICE"]
 
 #: said before kernels compile (the first run on a machine)
 COMPILE_NOTICE = "compiling kernels (once per machine, about 15-30 s; later runs load them from the cache)"
@@ -34,28 +38,76 @@ def _clock(s: float) -> str:
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
-def fit_line(parts: list[str], width: int, shrink: int = 0) -> str:
-    """Join ``parts`` with spaces within ``width`` characters: the part at index
-    ``shrink`` (a label) is shortened first (with …), then the line is cut."""
-    line = " ".join(p for p in parts if p)
-    over = len(line) - width
-    if over > 0 and parts[shrink]:
-        keep = max(1, len(parts[shrink]) - over - 1)
-        parts = list(parts)
-        parts[shrink] = parts[shrink][:keep] + "…"
-        line = " ".join(p for p in parts if p)
-    return line if len(line) <= width else line[: max(0, width - 1)] + "…"
+def _cut_words(text: str, width: int) -> str:
+    """``text`` within ``width`` characters, cut at a word boundary (a space
+    or '_') with …, never inside a word or a number."""
+    if len(text) <= width:
+        return text
+    if width <= 1:
+        return "…"[:max(0, width)]
+    head = text[: width - 1]
+    cut = max(head.rfind(" "), head.rfind("_"))
+    if cut <= 0:
+        return "…"
+    return head[:cut].rstrip(" _/") + "…"
+
+
+def fit_line(parts: list[str], width: int, shrink: int | None = 0, drop=None, drop_first=()) -> str:
+    """Join ``parts`` (fields) with spaces within ``width`` characters, never
+    cutting inside a field's number or word: the part at index ``shrink`` (a
+    label; None: none) is shortened first, at a word boundary (with …); then whole parts
+    are left out, in the order ``drop`` (indices; default: from the last one
+    back to the second); at last the first part is cut at a word boundary.
+    ``drop_first``: parts left out before the label is shortened."""
+    parts = [p or "" for p in parts]
+
+    def joined(ps):
+        return " ".join(p for p in ps if p)
+
+    line = joined(parts)
+    for i in drop_first:
+        if len(line) <= width:
+            return line
+        parts[i] = ""
+        line = joined(parts)
+    if len(line) <= width:
+        return line
+    if shrink is not None and parts[shrink]:
+        over = len(line) - width
+        parts[shrink] = _cut_words(parts[shrink], max(1, len(parts[shrink]) - over))
+        if parts[shrink] == "…":
+            parts[shrink] = ""
+        line = joined(parts)
+    order = list(drop) if drop is not None else list(range(len(parts) - 1, 0, -1))
+    for i in order:
+        if len(line) <= width:
+            break
+        parts[i] = ""
+        line = joined(parts)
+    return line if len(line) <= width else _cut_words(line, width)
+
+
+def wrap_line(text: str, width: int) -> list[str]:
+    """A line of its own folded to ``width`` at spaces (a word longer than the
+    width is cut at a word boundary), continuation lines indented."""
+    import textwrap
+
+    lines = textwrap.wrap(text, max(8, width), subsequent_indent="  ", break_long_words=False,
+                          break_on_hyphens=False) or [""]
+    return [ln if len(ln) <= width else _cut_words(ln, width) for ln in lines]
 
 
 def stage_line(label: str, gen: int, total: int, best: str, elapsed: float, width: int) -> str:
-    """``label [####....] gen/total best 0:12`` within ``width`` characters (the bar shrinks first)."""
+    """``label [####....] gen/total best 0:12`` within ``width`` characters (the
+    bar shrinks, then it is left out, then the label is shortened at a word
+    boundary; then the clock and the best value are left out whole)."""
     tail = f"{gen}/{total}"
     rest = [label, "", tail, best, _clock(elapsed)]
     room = width - len(" ".join(p for p in rest if p)) - 3
     bar_w = max(4, min(24, room))
     k = int(bar_w * gen / max(total, 1))
     rest[1] = f"[{'#' * k}{'.' * (bar_w - k)}]"
-    return fit_line(rest, width)
+    return fit_line(rest, width, drop=[4, 3, 2], drop_first=[1])
 
 
 class _Stage:
@@ -84,6 +136,7 @@ class Progress:
         self._t0 = time.perf_counter()
         self._describe = None
         self._pre_done: set[str] = set()
+        self._phase = ""            # the run's final phase (results, report), shown instead of the ETA
 
     # ------------------------------------------------------------------ display
     def _width(self) -> int:
@@ -129,19 +182,30 @@ class Progress:
 
     def _run_line(self, w: int) -> str:
         el = time.perf_counter() - self._t0
-        todo = sum(work for n, (_, work) in self._plan.items() if n not in self._done and n not in self._pre_done)
-        total = todo + self._work_done
-        done = self._progress_work()
+        work = {n: wk for n, (_, wk) in self._plan.items()}
+        total = sum(work.values())
+        before = sum(work[n] for n in self._pre_done if n in work)      # done before (a resumed run)
+        finished = sum(work[n] for n in self._done - self._pre_done if n in work)
+        running = sum(work[n] * min(s.gen, s.total) / max(s.total, 1) for n, s in self._stages.items() if n in work)
+        done_all = before + finished + running
+        here = self._progress_work()        # the work this process has seen done: its rate
         eta = ""
-        if done > 0 and el > 1.0:
-            eta = f"ETA {_clock(el * max(total - done, 0.0) / done)}"
-        n_done = len(self._done | self._pre_done)
-        pct = f"{100 * done / total:.0f}%" if total > 0 else ""
-        return fit_line([f"run: {n_done}/{len(self._plan)} stages done", pct, f"{_clock(el)} elapsed", eta], w)
+        if self._phase:
+            eta = self._phase
+        elif here > 0 and el > 1.0:
+            eta = f"ETA {_clock(el * max(total - done_all, 0.0) / here)}"
+        elif total > done_all:
+            eta = "ETA …"
+        n_done = len((self._done | self._pre_done) & set(work))
+        pct = f"{100 * min(done_all / total, 1.0):.0f}%" if total > 0 else ""
+        return fit_line([f"run: {n_done}/{len(self._plan)} stages done", pct, f"{_clock(el)} elapsed", eta], w,
+                        shrink=None, drop=[2, 1])
 
     def _print(self, text: str) -> None:
         if self._ensure():
-            self._console.print(text[: self._width()], no_wrap=True, overflow="ellipsis", crop=True)
+            # folded at spaces, never cut inside a word or a number
+            self._console.print("\n".join(wrap_line(text, self._width())), no_wrap=True, overflow="ellipsis",
+                                crop=True)
 
     def _drain(self) -> None:
         if self.poll is None:
@@ -167,6 +231,14 @@ class Progress:
     def compiling(self, what: str = "") -> None:
         """The notice before kernels compile (the first run on a machine)."""
         self._print(COMPILE_NOTICE)
+
+    def phase(self, text: str, short: str | None = None) -> None:
+        """The run's final work after its stages (final results, report
+        writing): a line of its own, and the run line names it (``short``)
+        instead of an ETA."""
+        with self._lock:
+            self._phase = short or text
+        self._print(text)
 
     def note(self, text: str) -> None:
         """A line of its own (e.g. a stage a worker process finished)."""
@@ -311,14 +383,15 @@ class CountProgress:
         eta = f"ETA {_clock(el * left / self.counted)}" if self.counted and left else ""
         k = int(12 * self.done_n / max(self.total, 1))
         line = fit_line([f"{self.label}:", f"[{'#' * k}{'.' * (12 - k)}]", f"{self.done_n}/{self.total} runs done",
-                         f"{_clock(el)} elapsed", eta], w, shrink=0)
+                         f"{_clock(el)} elapsed", eta], w, shrink=0, drop=[1, 3, 4, 2])
         return Text(line, no_wrap=True, overflow="ellipsis")
 
     def say(self, text: str, file=None) -> None:
         """A line of its own: above the counter on the terminal, else to ``file`` (stdout)."""
         out = file or sys.stdout
         if self.enabled and _isatty(out):
-            self._console.print(text, overflow="fold", crop=True)   # folded to the width, never cut
+            w = max(20, self._console.width - 1)
+            self._console.print("\n".join(wrap_line(text, w)), no_wrap=True, crop=True)   # folded at spaces
         else:
             print(text, file=out, flush=True)
 

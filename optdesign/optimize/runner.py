@@ -76,9 +76,10 @@ def config_of_folder(path: str | os.PathLike) -> Config:
     return cfg
 
 
-def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
+def summary_line(res: PipelineResult, cfg: Config | None = None, wall: float | None = None) -> str:
     """One line: the run folder, its status, f, the global indices and the
-    optimum (in the config's units with the unit named)."""
+    optimum (in the config's units with the unit named); ``wall``: the whole
+    run's wall time (default: the recorded one, which ends before the report)."""
     from ..units import design_text, index_text
 
     r = res.results
@@ -89,4 +90,5 @@ def summary_line(res: PipelineResult, cfg: Config | None = None) -> str:
     f = r["objective"]
     f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
     return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective f={f_txt} "
-            f"[{idx}] at {opt} ({r.get('evaluations', '?')} evaluations, {r.get('wall_time_s', '?')} s)")
+            f"[{idx}] at {opt} ({r.get('evaluations', '?')} evaluations, "
+            f"{f'{wall:.1f}' if wall is not None else r.get('wall_time_s', '?')} s)")
