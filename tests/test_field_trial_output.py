@@ -195,3 +195,95 @@ def test_run_line_counts_resumed_stages_and_has_an_eta_from_the_prescan(monkeypa
         assert "writing report …" in line and "ETA" not in line
     finally:
         p.close()
+
+
+# ---------------------------------------------------------------- the end of a run
+SMALL = ROOT / "tests" / "data" / "p4s_small.yaml"
+
+
+def _small(tmp_path, algorithms=None):
+    text = SMALL.read_text()
+    if algorithms:
+        text = text.replace("pareto: {population: 20, generations: 6}",
+                            f"pareto: {{algorithms: [{', '.join(algorithms)}], population: 20, generations: 6}}")
+        assert "nsga3" in text
+    (tmp_path / "small.yaml").write_text(text)
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """One small run with NSGA-III, its JSON (--json) and the browser it asked for (--open)."""
+    import json
+    import time
+    import webbrowser
+
+    tmp = tmp_path_factory.mktemp("run")
+    _small(tmp, ["nsga2", "nsga3"])
+    opened = []
+    old = webbrowser.open
+    webbrowser.open = lambda url, *a, **k: opened.append(url) or True
+    try:
+        t0 = time.perf_counter()
+        rc, out, err = run_cli_in(tmp, ["run", "small.yaml", "--out", "runs", "--jobs", "1", "--json", "--open"])
+        elapsed = time.perf_counter() - t0
+    finally:
+        webbrowser.open = old
+    assert rc == 0, err
+    return json.loads(out), err, opened, elapsed
+
+
+def test_run_json_names_the_report_and_the_whole_wall_time(small_run):
+    res, err, opened, elapsed = small_run
+    folder = Path(res["folder"])
+    assert res["files"]["report.html"] == str(folder / "report.html")
+    assert res["files"]["results.md"] == str(folder / "results.md")
+    # the whole run: the stages, the final results and the report's writing
+    assert res["wall_time_s"] <= res["wall_time_total_s"] <= elapsed
+
+
+def test_run_open_opens_report_html(small_run):
+    res, err, opened, _ = small_run
+    assert opened == [(Path(res["folder"]) / "report.html").resolve().as_uri()]
+    assert "opened" in err and "report.html" in err     # with --json the line goes to stderr
+
+
+def test_nsga3_count_during_the_run_is_the_reported_front(small_run):
+    import csv
+
+    res, *_ = small_run
+    folder = Path(res["folder"])
+    for alg in ("pareto_nsga2", "pareto_nsga3"):
+        rows = list(csv.DictReader((folder / "stages" / alg / "history.csv").open()))
+        assert int(rows[-1]["front_size"]) == res["pareto"][alg]["front_size"], alg
+
+
+def test_run_prints_the_report_paths_and_open_without_a_browser(tmp_path, monkeypatch):
+    import webbrowser
+
+    _small(tmp_path)
+    monkeypatch.setattr(webbrowser, "open", lambda *a, **k: False)
+    rc, out, err = run_cli_in(tmp_path, ["run", "small.yaml", "--out", "runs", "--jobs", "1", "--no-pareto", "--open"])
+    assert rc == 0, err
+    lines = out.strip().splitlines()
+    folder = Path(lines[0].split(": complete")[0])
+    assert lines[1] == f"report: {folder / 'report.html'}" and (tmp_path / folder / "report.html").exists()
+    assert lines[2] == f"results: {folder / 'results.md'}"
+    assert "no web browser available" in lines[3] and "report.html" in lines[3]
+
+
+def test_resumed_run_percent_counts_the_stages_done_before(tmp_path):
+    """A run stopped after some stages and resumed: the progress's percentage
+    includes the finished stages' work."""
+    from optdesign.config import load_config
+    from optdesign.optimize.pipeline import stage_plan, stage_work
+    from optdesign.optimize.progress import Progress
+
+    _small(tmp_path)
+    cfg = load_config(tmp_path / "small.yaml")
+    plan = [(st.name, *stage_work(cfg, st)) for st in stage_plan(cfg)]
+    p = Progress(False)
+    p.plan(plan, done=[n for n, *_ in plan[:5]])
+    line = p._run_line(200)
+    work = [g * n for _, g, n in plan]
+    assert f"5/{len(plan)} stages done" in line
+    assert f"{100 * sum(work[:5]) / sum(work):.0f}%" in line
