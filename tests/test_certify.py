@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from optdesign.certify.bnb import branch_and_bound
-from optdesign.certify.interval import Interval
-from optdesign.certify.matrix import cond_fro_upper
-from optdesign.certify.p4s import P4SEnclosure
+from optdesign.intervals.interval import Interval
+from optdesign.intervals.matrix import cond_fro_upper
+from optdesign.mechanisms.p4s.enclosure import P4SEnclosure
 from optdesign.linalg import cond_fro
 from optdesign.mechanisms import get
 

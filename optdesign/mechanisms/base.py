@@ -198,6 +198,17 @@ class Mechanism:
         drawing."""
         return None
 
+    # ------------------------------------------------------------------ certificates
+    def enclosure(self):
+        """The interval enclosure of one design's kinematics over boxes of poses
+        (optdesign.certify): a callable ``(lo, hi) -> {"reach_lo", "J", "q"}``
+        for boxes lo, hi (K, dof): ``reach_lo`` (K,) > 0 where every pose of a
+        box is reachable, ``J`` rows of :class:`optdesign.intervals.interval.Interval`
+        (K,) enclosing the Jacobian of the indices, ``q`` per actuator an
+        enclosure of its value or None.  Raises NotImplementedError (its
+        message says why) where the mechanism has none."""
+        raise NotImplementedError(f"no interval enclosure of the {type(self).__name__} mechanism yet")
+
     # ------------------------------------------------------------------ indices
     def global_statistics(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's answer for these requests over the points X (N, dof):

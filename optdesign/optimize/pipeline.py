@@ -317,6 +317,10 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         stages = {st.name: stages[st.name] for st in plan}
         progress.phase("final results: the optimum and the extremes checked and polished ...", "final results …")
         results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish)
+        progress.phase("certificates: every reported design over the continuous workspace ...", "certificates …")
+        from ..certify.reported import certify_reported
+
+        results["certificates"] = certify_reported(evaluator, results, stages)
         wall = round(wall_before + time.perf_counter() - t0, 3)
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
         results.update(wall_time_s=wall, evaluations=evals)

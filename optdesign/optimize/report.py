@@ -129,7 +129,11 @@ def format_results(cfg: Config, results: dict) -> str:
     lines.append(f"Mechanism `{cfg.mechanism}`, seed {results['seed']}, {results['workspace_points']} workspace points, "
                  f"{results.get('evaluations', '?')} design evaluations, wall time {results.get('wall_time_s', '?')} s.")
     lines.append("")
-    lines.append(f"**Optimum** (weighted sum): {design_text(cfg, results['optimum']) or 'no free variable'}.  ")
+    from .report_certificates import certificate_lines, status_text
+
+    certs = results.get("certificates") or {}
+    cert = f" ({status_text(certs['optimum'])} over W)" if "optimum" in certs else ""
+    lines.append(f"**Optimum** (weighted sum): {design_text(cfg, results['optimum']) or 'no free variable'}{cert}.  ")
     lines.append("**Global indices** (means over W): "
                  + ", ".join(index_text(cfg, k, v) for k, v in results["global_indices"].items() if k in cfg.indices)
                  + ".  ")
@@ -169,6 +173,7 @@ def format_results(cfg: Config, results: dict) -> str:
     lines += _objective_lines(cfg, results)
     lines += extremes_lines(cfg, results) + optimality_lines(cfg, results)
     lines += _pareto_lines(cfg, results)
+    lines += certificate_lines(cfg, results)
     lines.append("")
     return "\n".join(lines)
 
@@ -251,16 +256,22 @@ def extremes_lines(cfg: Config, results: dict) -> list[str]:
     """Where each extreme of the normalization was found (design, stage, how),
     and whether a later stage moved one (then every normalized objective of
     the report is recomputed from the final extremes)."""
+    from .report_certificates import status_text
+
     norm = results.get("normalization", {})
+    certs = results.get("certificates") or {}
     rows = []
     for k, v in norm.items():
         for b in ("min", "max"):
             if f"{b}_found_by" in v:
-                rows.append([k, b, _f(v[b]), v[f"{b}_found_by"], v.get(f"{b}_stage", ""), _design_text(cfg, v[f"{b}_design"])])
+                row = [k, b, _f(v[b]), v[f"{b}_found_by"], v.get(f"{b}_stage", ""), _design_text(cfg, v[f"{b}_design"])]
+                if certs:
+                    row.append(status_text(certs.get(f"{k}.{b}")))
+                rows.append(row)
     if not rows:
         return []
     out = ["", "### Where the extremes were found", "",
-           _md(["index", "extreme", "value", "found by", "stage", "design"], rows), ""]
+           _md(["index", "extreme", "value", "found by", "stage", "design"] + (["over W"] if certs else []), rows), ""]
     ups = results.get("normalization_updates")
     if ups:
         moved = "; ".join(f"{u['index']} {u['bound']} {_f(u['from'])} -> {_f(u['to'])} ({u['stage']})" for u in ups)

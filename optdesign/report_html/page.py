@@ -38,6 +38,7 @@ th, td { border-bottom: 1px solid var(--line); padding: 4px 10px; text-align: le
 th { background: #f3f5f8; font-weight: 600; white-space: nowrap; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 table.norm td:nth-child(5), table.norm td:nth-child(7) { white-space: normal; font-size: 12.5px; }
+p.cert.bad { color: #b00020; font-weight: 600; } p.cert.warn { color: #8a5a00; } p.cert.ok { color: #1b5e20; }
 table.kv td:first-child { font-weight: 600; white-space: nowrap; }
 table.kv td { white-space: normal; }
 .muted { color: var(--muted); }

@@ -11,6 +11,7 @@ from .figures import atlas_figures, convergence_figures, esc, fmt, front_parcoor
 from .page import Page, plotly_js_version
 from .rundata import RunData, load_run
 from .views import COPY_SCRIPT, alternatives, copy_table, mechanism_figure, workspace_figure
+from .certificates import certificates_html, optimum_status_html
 from .tables import (index_table, manifest_table, normalization_table, objective_text, optimum_table,
                      placement_table, reference_table)
 from ..units import index_unit, variable_unit
@@ -106,6 +107,7 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
     page = Page(f"{run.cfg.name}: optimization report")
     page.section("optimum", "Optimum")
     page.html(optimum_table(run))
+    page.html(optimum_status_html(run))
     page.section("indices", "Global indices")
     page.html(index_table(run))
     page.html("<p class=note>Means of the local indices over the workspace W (min and max over W at the optimum). "
@@ -125,6 +127,9 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
     page.section("normalization", "Normalization")
     page.html(normalization_table(run))
     page.html(_normalization_text(run))
+    if run.results.get("certificates"):
+        page.section("certificates", "Certificates over the continuous workspace")
+        page.html(certificates_html(run))
     conv = convergence_figures(run)
     if conv:
         page.section("convergence", "Convergence")

@@ -129,6 +129,15 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         velocity in the base frame (for the angles)."""
         return self._jac(self.leg_state(X), "angular_velocity")
 
+    def enclosure(self):
+        """The interval enclosure of this design's kinematics (:mod:`.enclosure`)."""
+        from .enclosure import DescribedEnclosure, supports
+
+        why = supports(self)
+        if why is not None:
+            raise NotImplementedError(f"no interval enclosure: {why}")
+        return DescribedEnclosure(self).evaluate
+
     def drawing(self, X: np.ndarray) -> dict:
         """The drawable points of one design at poses X (N, dof) (see
         :meth:`Mechanism.drawing`): each leg from its base point A through the

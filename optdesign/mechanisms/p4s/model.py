@@ -314,6 +314,15 @@ class P4S(Mechanism):
         return {"platform": np.broadcast_to(X, dpt.shape[:-2] + (3,)), "sliders": c, "rods": rods,
                 "rod_axes": st["n"], "c": c, "d": dpt}
 
+    def enclosure(self):
+        """The interval enclosure of this design's kinematics (:mod:`.enclosure`)."""
+        from .enclosure import P4SEnclosure
+
+        p = {k: np.asarray(getattr(self, k), dtype=float) for k in ("r_a", "r_b", "L", "d", "phi")}
+        if any(v.size != 1 for v in p.values()):
+            raise NotImplementedError("an enclosure is of one design at a time")
+        return P4SEnclosure(**{k: float(v.reshape(())) for k, v in p.items()}).evaluate
+
     def drawing(self, X: np.ndarray) -> dict:
         """The drawable points of one design at platform positions X (N, 3) (see
         :meth:`Mechanism.drawing`): each leg runs from the rail's start u_i

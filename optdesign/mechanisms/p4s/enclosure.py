@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .interval import Interval, cos_point, hull, point, sin_point
+from ...intervals.interval import Interval, cos_point, hull, point, sin_point
 
 __all__ = ["P4SEnclosure"]
 

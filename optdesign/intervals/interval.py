@@ -75,12 +75,16 @@ class Interval:
         return Interval(-self.hi, -self.lo)
 
     def __add__(self, o):
+        if getattr(o, "_is_dual", False):
+            return NotImplemented
         o = Interval._of(o)
         return Interval(_down(self.lo + o.lo), _up(self.hi + o.hi))
 
     __radd__ = __add__
 
     def __sub__(self, o):
+        if getattr(o, "_is_dual", False):
+            return NotImplemented
         o = Interval._of(o)
         return Interval(_down(self.lo - o.hi), _up(self.hi - o.lo))
 
@@ -88,6 +92,8 @@ class Interval:
         return Interval._of(o) - self
 
     def __mul__(self, o):
+        if getattr(o, "_is_dual", False):
+            return NotImplemented
         o = Interval._of(o)
         p = (self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi)
         lo = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3]))
@@ -105,6 +111,8 @@ class Interval:
         return Interval(lo, hi)
 
     def __truediv__(self, o):
+        if getattr(o, "_is_dual", False):
+            return NotImplemented
         o = Interval._of(o)
         bad = (o.lo <= 0.0) & (o.hi >= 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -184,3 +192,37 @@ def norm_upper(mags) -> np.ndarray:
     for m in mags:
         s = _up(s + _up(m * m))
     return _up(np.sqrt(s))
+
+
+_TWO_PI = 2.0 * np.pi
+#: slack (rad) when asking whether an interval holds an extremum of cos or sin:
+#: far above the rounding of k * 2 pi for the angles of a workspace (|x| < 1e3)
+_EXT_TOL = 1e-9
+
+
+def _has_point(lo, hi, offset):
+    """Whether [lo, hi] (widened by _EXT_TOL) holds offset + 2 k pi for some integer k."""
+    k = np.ceil((lo - _EXT_TOL - offset) / _TWO_PI)
+    return offset + k * _TWO_PI <= hi + _EXT_TOL
+
+
+def _trig(x: Interval, f, at_max: float, at_min: float) -> Interval:
+    lo, hi = x.lo, x.hi
+    a, b = f(lo), f(hi)
+    mn, mx = _widen(np.minimum(a, b), 4).lo, _widen(np.maximum(a, b), 4).hi
+    mx = np.where(_has_point(lo, hi, at_max), 1.0, mx)
+    mn = np.where(_has_point(lo, hi, at_min), -1.0, mn)
+    whole = ~(hi - lo < _TWO_PI) | ~np.isfinite(lo) | ~np.isfinite(hi)
+    mn = np.where(whole, -1.0, np.maximum(mn, -1.0))
+    mx = np.where(whole, 1.0, np.minimum(mx, 1.0))
+    return Interval(mn, mx)
+
+
+def cos(x: Interval) -> Interval:
+    """cos over intervals: the end values widened by 4 ulps, and +-1 where the
+    interval holds a multiple of pi (its extrema)."""
+    return _trig(x, np.cos, 0.0, np.pi)
+
+
+def sin(x: Interval) -> Interval:
+    return _trig(x, np.sin, 0.5 * np.pi, -0.5 * np.pi)

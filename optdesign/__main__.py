@@ -1,0 +1,6 @@
+"""``python -m optdesign``: the optdesign command."""
+import sys
+
+from .cli import main
+
+sys.exit(main())
