@@ -62,7 +62,8 @@ def certify_reported(evaluator, results: dict, stages: dict, budget: int | None 
         if sig not in done or (done[sig]["status"] == "unknown" and done[sig]["boxes"] < b):
             mech = evaluator.mechanism(**{**evaluator.fixed, **full})
             done[sig] = certify_design(mech, region, evaluator.threshold, conv, evaluator.stroke_limits, budget=b)
-        out[key] = {**done[sig], "design": d}
+        out[key] = {k: v for k, v in done[sig].items() if k != "seconds"}   # results.json stays reproducible
+        out[key]["design"] = d
         if out[key].get("witness") is not None:
             out[key]["axes"] = list(evaluator.workspace.names)
     return out
