@@ -32,8 +32,8 @@ def _up(a):
     return np.nextafter(a, np.inf)
 
 
-def inverse_fro_upper(J) -> np.ndarray:
-    """(K,) upper bounds of max ||J^-1||_F over each interval matrix (inf where not proved regular)."""
+def _preconditioner(J):
+    """C = inv(mid J) (K, n, n) and where it exists (K,) (elsewhere C = 0)."""
     n = len(J)
     Jm = mid_matrix(J)
     good = np.all(np.isfinite(Jm), axis=(-1, -2))
@@ -43,7 +43,13 @@ def inverse_fro_upper(J) -> np.ndarray:
         good &= np.isfinite(det) & (det != 0.0)
         C = np.linalg.inv(np.where(good[:, None, None], Jm, np.eye(n)))
     good &= np.all(np.isfinite(C), axis=(-1, -2))
-    C = np.where(good[:, None, None], C, 0.0)
+    return np.where(good[:, None, None], C, 0.0), good
+
+
+def inverse_fro_upper(J) -> np.ndarray:
+    """(K,) upper bounds of max ||J^-1||_F over each interval matrix (inf where not proved regular)."""
+    n = len(J)
+    C, good = _preconditioner(J)
     mags = []
     for i in range(n):
         for j in range(n):
@@ -107,15 +113,7 @@ def cond_2_upper(J) -> np.ndarray:
     sigma_max bounded by :func:`_sigma_max_upper`; never above the Frobenius
     bound (cond_2 <= cond_F)."""
     n = len(J)
-    Jm = mid_matrix(J)
-    good = np.all(np.isfinite(Jm), axis=(-1, -2))
-    Jm = np.where(good[:, None, None], Jm, np.eye(n))
-    with np.errstate(all="ignore"):
-        det = np.linalg.det(Jm)
-        good &= np.isfinite(det) & (det != 0.0)
-        C = np.linalg.inv(np.where(good[:, None, None], Jm, np.eye(n)))
-    good &= np.all(np.isfinite(C), axis=(-1, -2))
-    C = np.where(good[:, None, None], C, 0.0)
+    C, good = _preconditioner(J)
     E = []
     for i in range(n):
         row = []
