@@ -28,7 +28,8 @@ def status_text(cert: dict | None) -> str:
     if s == "refuted":
         v = cert.get("value")
         what = {"unreachable": "a pose of W is unreachable", "stroke": "a stroke limit is broken"}.get(
-            cert.get("reason"), f"cond {v:.4g} > {cert['limit']:.4g}" if v is not None else "singular")
+            cert.get("reason"), f"cond {v:.4g} > {cert['limit']:.4g}" if v is not None and cert.get("limit") is not None
+            else "singular")
         return f"REFUTED ({what})"
     if s == "unknown":
         return f"unknown ({100 * cert['share_proved']:.1f} % of W proved)"
@@ -40,10 +41,11 @@ def certificate_lines(cfg: Config, results: dict) -> list[str]:
     certs = results.get("certificates")
     if not certs:
         return []
-    limit = next(iter(certs.values())).get("limit")
+    limit = next((c["limit"] for c in certs.values() if c.get("limit") is not None), None)
+    bound = f"at most {limit:g}" if limit is not None else "within the singularity limit"
     out = ["", "## Certificates over the continuous workspace", "",
            "Interval branch and bound over boxes of W (docs/certificates.md): `certified` means every pose of W "
-           f"is reachable and the condition number is at most {limit:g} there (and the stroke limits hold, when set), "
+           f"is reachable and the condition number is {bound} there (and the stroke limits hold, when set), "
            "proved for the whole continuum, not only at the samples; `refuted` gives a pose of W where the design "
            "breaks a constraint; `unknown` the share of W's volume proved within the budget.", ""]
     rows = []

@@ -17,7 +17,8 @@ def _status(c: dict) -> str:
     if s == "refuted":
         v = c.get("value")
         what = {"unreachable": "a pose of W unreachable", "stroke": "a stroke limit broken"}.get(
-            c.get("reason"), f"cond {v:.4g} &gt; {c['limit']:.4g}" if v is not None else "singular")
+            c.get("reason"), f"cond {v:.4g} &gt; {c['limit']:.4g}" if v is not None and c.get("limit") is not None
+            else "singular")
         return f"<b>refuted</b> ({what})"
     if s == "unknown":
         return f"unknown ({100 * c['share_proved']:.1f} % of W proved)"
@@ -46,11 +47,12 @@ def certificates_html(run: RunData) -> str:
     certs = run.results.get("certificates") or {}
     if not certs:
         return ""
-    limit = next(iter(certs.values())).get("limit")
+    limit = next((c["limit"] for c in certs.values() if c.get("limit") is not None), None)
+    bound = f"at most {limit:g}" if limit is not None else "within the singularity limit"
     rows = [[f"<code>{esc(k)}</code>", _status(c), str(int(c.get("boxes", 0))), _witness(run, c)]
             for k, c in certs.items()]
     note = ("<p class=note>Interval branch and bound over boxes of W: <i>certified</i> means every pose of the "
-            f"continuous W is reachable and the condition number is at most {limit:g} there (and the stroke limits "
+            f"continuous W is reachable and the condition number is {bound} there (and the stroke limits "
             "hold, when set); <i>refuted</i> gives a pose of W where the design breaks a constraint; "
             "<i>unknown</i> the share of W's volume proved within the budget. A design that is not certified "
             "holds its numbers at the samples of W only.</p>")
