@@ -18,7 +18,7 @@ from .commands._common import UsageError  # owned by the commands; optdesign.cli
 from .config import ConfigError
 
 #: order in which commands are listed in --help
-_ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
+_ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare", "export",
           "bench", "validate-config", "validate-dynamics"]
 
 

@@ -349,6 +349,7 @@ def make_class(desc: Description, registry_name: str) -> type[DescribedMechanism
         "fixed_parameters": fixed,
         "positive_parameters": tuple(p.name for p in desc.params if not p.design and p.kind in ("length", "stiffness")),
         "nonnegative_parameters": tuple(p.name for p in desc.params if not p.design and p.kind in ("mass", "inertia")),
+        "multibody_check": "optdesign.mechanisms.described.mujoco" if desc.has_dynamics else None,
         "supported_indices": KINEMATIC_INDICES + (("dynamic",) if desc.has_dynamics else ()),
         "angular_axes": tuple(n for n, r in zip(desc.pose.names, desc.pose.roles) if r in ("roll", "pitch", "yaw")),
         "__doc__": f"Described mechanism {desc.label!r}: {len(desc.legs)} legs "

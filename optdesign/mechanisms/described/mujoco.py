@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mjcf", "DescribedModel", "inverse_dynamics", "energies", "smooth_trajectory"]
+__all__ = ["mjcf", "DescribedModel", "inverse_dynamics", "energies", "smooth_trajectory", "actuated_joints",
+           "state_at"]
 
 AXIAL = 1e-6     # kg m^2: axial inertia of slender bodies (their spin stays zero)
 
@@ -115,6 +116,20 @@ def mjcf(mech) -> str:
     lines.append('  </equality>')
     lines.append('</mujoco>')
     return "\n".join(lines) + "\n"
+
+
+def actuated_joints(mech) -> list[str]:
+    """The names of the actuated joints of :func:`mjcf`'s model (slides and hinges, leg order)."""
+    return [f"act{i}" for i in range(len(mech.constants.kind))]
+
+
+def state_at(mech, X) -> tuple[np.ndarray, np.ndarray]:
+    """qpos of :func:`mjcf`'s model at rest at the pose X (dof,) (our
+    kinematics: every loop closed) and the actuator values there (n_act,)."""
+    mm = DescribedModel(mech)
+    z = np.zeros(mech.pose_spec.dof)
+    qpos, _, _ = mm.state(X, z, z)
+    return qpos, qpos[mm.act_q].copy()
 
 
 def _quat_z_to(n):

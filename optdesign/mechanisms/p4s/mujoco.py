@@ -51,7 +51,7 @@ from .trajectories import Trajectory, large_trajectory, paper_trajectory  # noqa
 
 __all__ = [
     "mjcf", "P4SModel", "Trajectory", "paper_trajectory", "large_trajectory",
-    "inverse_dynamics", "simulate",
+    "inverse_dynamics", "simulate", "actuated_joints", "state_at",
 ]
 
 #: constraint settings for the simulation: (time constant, damping ratio) and
@@ -137,6 +137,19 @@ def mjcf(mech: P4S, *, timestep: float = SIM_TIMESTEP, integrator: str = "RK4",
     lines.append('  </actuator>')
     lines.append('</mujoco>')
     return "\n".join(lines) + "\n"
+
+
+def actuated_joints(mech: P4S) -> list[str]:
+    """The names of the actuated joints of :func:`mjcf`'s model (the sliders)."""
+    return [f"slide{i}" for i in range(3)]
+
+
+def state_at(mech: P4S, X) -> tuple[np.ndarray, np.ndarray]:
+    """qpos of :func:`mjcf`'s model at rest at the platform position X (3,)
+    (our kinematics: every loop closed) and the actuator values there (3,)."""
+    mm = P4SModel(mech)
+    qpos, _ = mm.kinematic_state(X, np.zeros(3))
+    return qpos, qpos[mm.slide_q].copy()
 
 
 def _quat_z_to(n: np.ndarray) -> np.ndarray:
