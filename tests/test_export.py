@@ -69,7 +69,7 @@ def test_export_cli_writes_a_model_that_loads_and_steps_with_closed_loops(tmp_pa
 
 
 def test_p4s_servos_bring_the_platform_to_the_inverse_kinematics_pose():
-    from optdesign.mechanisms.mjcf_export import export_mjcf
+    from optdesign.mjcf_export import export_mjcf
 
     cfg = load_config(RUN / "config.yaml")
     mech = build(cfg, "after")
@@ -91,7 +91,7 @@ def test_p4s_servos_bring_the_platform_to_the_inverse_kinematics_pose():
 ])
 def test_described_servos_bring_the_platform_to_the_inverse_kinematics_pose(name, target, monkeypatch):
     monkeypatch.setenv("OPTDESIGN_FAST", "0")
-    from optdesign.mechanisms.mjcf_export import export_mjcf
+    from optdesign.mjcf_export import export_mjcf
 
     mech = build(load_config(ROOT / "configs" / name), "reference")
     target = np.array(target)

@@ -4,7 +4,7 @@ Writes the MJCF model (SI units) of one design of a finished run: the
 mechanism's multibody model (closed loops as ``connect`` equality
 constraints), a position servo on each actuated joint and a keyframe
 ``home`` at the centre of the workspace (every loop closed; see
-:mod:`optdesign.mechanisms.mjcf_export`).  The run folder is only read (its
+:mod:`optdesign.mjcf_export`).  The run folder is only read (its
 JSON and YAML, never code); the one file written is FILE, through a
 temporary file in FILE's folder and a rename.
 """
@@ -109,7 +109,7 @@ def run(args) -> int:
     from ._common import UsageError
     from ..evaluate import build
     from ..io import atomic_write_text
-    from ..mechanisms.mjcf_export import DEFAULT_FREQUENCY, export_mjcf, model_module
+    from ..mjcf_export import DEFAULT_FREQUENCY, export_mjcf, model_module
     from ..report_html.rundata import load_run
     from ..runs import RunFolderError
 
