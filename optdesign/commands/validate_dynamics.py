@@ -1,7 +1,12 @@
 """optdesign validate-dynamics CONFIG --design NAME [--out DIR]: our dynamics against MuJoCo.
 
-Runs the two comparisons of the mechanism's MuJoCo check (for the 3-P(4S)
-``optdesign.mechanisms.p4s.mujoco``) on the
+A described mechanism (with masses; ``optdesign.mechanisms.described.mujoco``):
+MuJoCo's inverse dynamics and its mass matrix reduced to the pose rates
+against ours on two smooth paths around the home pose (small and large
+amplitudes), written as ``forces.png``, ``summary.json`` and the model.
+
+The 3-P(4S): runs the two comparisons of its MuJoCo check
+(``optdesign.mechanisms.p4s.mujoco``) on the
 paper's path (x = y = 0.001 sin(40 pi t)) and on a larger one, prints the
 agreement numbers and writes ``forces.png`` (the actuator forces from our
 model and from MuJoCo, as the 3-P(4S) paper's figures 9 and 10), ``tracking.png``
@@ -72,6 +77,8 @@ def run(args) -> int:
 
     mv = importlib.import_module(check)
     mech = build(cfg, args.design)
+    if not hasattr(mv, "simulate"):
+        return _run_described(args, cfg, mech, mv)
     z = args.z if args.z is not None else 0.5 * sum(cfg.workspace.axes["z"])
     out = Path(args.out) if args.out else Path("validation") / args.design
     if out.exists() and not out.is_dir():
@@ -133,6 +140,70 @@ def run(args) -> int:
     return 0
 
 
+#: the described paths: (name, amplitude in m, amplitude in rad); durations from --duration, --large-duration
+DESCRIBED_PATHS = (("small", 0.005, 0.02), ("large", 0.02, 0.08))
+
+
+def _run_described(args, cfg, mech, mv) -> int:
+    """Inverse dynamics and reduced mass matrix of a described mechanism against MuJoCo."""
+    import sys
+    from pathlib import Path
+
+    import mujoco
+    import numpy as np
+
+    from ..io import atomic_write_bytes, atomic_write_json
+    from ..tables import fmt, print_table
+    from ._common import UsageError
+
+    out = Path(args.out) if args.out else Path("validation") / args.design
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out: {out} exists and is not a folder")
+    results, rows = {}, []
+    summary = {"config": cfg.source, "design": args.design, "parameters": cfg.design(args.design), "paths": {}}
+    try:
+        model = mv.DescribedModel(mech)
+        for (name, amp_l, amp_a), t_end in zip(DESCRIBED_PATHS, (args.duration, args.large_duration)):
+            t = np.linspace(0.0, t_end, args.points)
+            X, V, A = mv.smooth_trajectory(mech, t, amplitude_length=amp_l, amplitude_angle=amp_a)
+            if not np.all(mech.reachable(X)):
+                print(f"optdesign: error: design {args.design!r} cannot follow the {name} path around the home "
+                      "pose: a pose is out of reach", file=sys.stderr)
+                return 1
+            inv = mv.inverse_dynamics(mech, X, V, A, model)
+            Mj, Mo = mv.mass_matrices(mech, X[:: max(1, len(X) // 20)], model)
+            peak = float(np.abs(inv["ours"]).max())
+            rel = float(np.abs(inv["forces"] - inv["ours"]).max() / peak)
+            mrel = float(np.abs(Mj - Mo).max() / np.abs(Mo).max())
+            results[name] = (None, t, inv, None)
+            rows.append([name, fmt(peak, 2), f"{rel:.2e}", f"{mrel:.2e}", f"{inv['loop_gap'].max():.1e}",
+                         f"{inv['residual'].max():.1e}"])
+            summary["paths"][name] = {
+                "path": f"two sines per pose coordinate around the home pose, amplitudes {amp_l:g} m, {amp_a:g} rad",
+                "duration_s": float(t[-1]), "points": len(t), "peak_force": peak,
+                "max_relative_difference": rel, "mass_matrix_max_relative_difference": mrel,
+                "max_loop_gap_m": float(inv["loop_gap"].max()),
+                "max_unbalanced_passive_force": float(inv["residual"].max())}
+    except (ValueError, NotImplementedError) as exc:
+        print(f"optdesign: error: {exc}", file=sys.stderr)
+        return 1
+    print(f"{cfg.source}: design {args.design}, MuJoCo {mujoco.__version__} (inverse dynamics and mass matrix)")
+    units = set(mech.actuator_units())
+    unit = "N m" if units == {"rad"} else "N" if units == {"m"} else "N or N m"
+    print_table(["path", f"peak force [{unit}]", "max diff / peak [–]", "mass matrix diff [–]", "loop gap [m]",
+                 "unbalanced [N or N m]"], rows)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out: cannot make the folder {out} ({exc.strerror or exc})") from None
+    atomic_write_bytes(out / "forces.png", _forces_figure(results, args.design, unit))
+    atomic_write_json(out / "summary.json", summary)
+    model_file = out / "model.xml"
+    atomic_write_bytes(model_file, mv.mjcf(mech).encode())
+    print(f"wrote {out / 'forces.png'}, {out / 'summary.json'}, {model_file} (the MuJoCo model)")
+    return 0
+
+
 def _png(fig) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90)
@@ -142,7 +213,7 @@ def _png(fig) -> bytes:
     return buf.getvalue()
 
 
-def _forces_figure(results, design) -> bytes:
+def _forces_figure(results, design, unit: str = "N") -> bytes:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -151,14 +222,14 @@ def _forces_figure(results, design) -> bytes:
     fig, axes = plt.subplots(len(results), 3, figsize=(14, 3.6 * len(results) + 0.6), squeeze=False,
                              layout="constrained")
     for row, (name, (traj, t, inv, _)) in zip(axes, results.items()):
-        for k in range(3):
+        for k in range(inv["ours"].shape[1]):
             row[0].plot(t, inv["ours"][:, k], label=f"actuator {k + 1}")
             row[1].plot(t, inv["forces"][:, k], label=f"actuator {k + 1}")
             row[2].plot(t, inv["forces"][:, k] - inv["ours"][:, k], label=f"actuator {k + 1}")
         row[0].set_title(f"{name} path: our model", fontsize=10)
         row[1].set_title(f"{name} path: MuJoCo inverse dynamics", fontsize=10)
         row[2].set_title(f"{name} path: MuJoCo − ours", fontsize=10)
-        for ax, lab in zip(row, ("actuator force [N]", "actuator force [N]", "difference [N]")):
+        for ax, lab in zip(row, (f"actuator force [{unit}]", f"actuator force [{unit}]", f"difference [{unit}]")):
             ax.set_xlabel("t [s]")
             ax.set_ylabel(lab)
             ax.grid(alpha=0.3)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["mjcf", "DescribedModel", "inverse_dynamics", "energies", "smooth_trajectory", "actuated_joints",
-           "state_at"]
+           "state_at", "mass_matrices"]
 
 AXIAL = 1e-6     # kg m^2: axial inertia of slender bodies (their spin stays zero)
 
@@ -308,6 +308,27 @@ def inverse_dynamics(mech, X, V, A, model: DescribedModel | None = None) -> dict
     out["forces"] = forces
     out["ours"] = mech.actuator_forces(X, V, A)
     return out
+
+
+def mass_matrices(mech, X, model: DescribedModel | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """MuJoCo's mass matrix reduced to the pose rates, ``Phi^T M(q) Phi`` (N, dof, dof),
+    beside ours (``platform_mass_matrix`` in rates), where ``Phi`` (nv, dof) maps
+    the pose rates to every joint's velocity (columns: our kinematic state at
+    a unit rate of one coordinate; the map is linear in the rates)."""
+    mm = model or DescribedModel(mech)
+    mj, m, d = mm.mj, mm.model, mm.data
+    X = np.atleast_2d(np.asarray(X, float))
+    dof = X.shape[1]
+    out = np.empty((len(X), dof, dof))
+    M = np.zeros((m.nv, m.nv))
+    z = np.zeros(dof)
+    for k in range(len(X)):
+        Phi = np.stack([mm.state(X[k], np.eye(dof)[j], z)[1] for j in range(dof)], axis=1)
+        d.qpos[:] = mm.state(X[k], z, z)[0]
+        mj.mj_forward(m, d)
+        mj.mj_fullM(m, d, M)
+        out[k] = Phi.T @ M @ Phi
+    return out, mech.platform_mass_matrix(X, "rates")
 
 
 def energies(mech, X, V, model: DescribedModel | None = None) -> tuple[np.ndarray, np.ndarray]:
