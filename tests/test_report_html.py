@@ -171,7 +171,7 @@ def test_units_in_labels_and_degrees(noref_run, noref_report):
     for data, layout in _figures(html):
         if not data or data[0].get("type") in ("splom", "parcoords"):
             continue
-        if all(tr.get("type") in ("scatter3d", "mesh3d") for tr in data):  # a 3-D scene names its three axes
+        if all(tr.get("type") in ("scatter3d", "mesh3d", "surface") for tr in data):  # a 3-D scene names its three axes
             scene = layout.get("scene", {})
             for a in ("xaxis", "yaxis", "zaxis"):
                 assert ((scene.get(a) or {}).get("title") or {}).get("text"), (layout.get("title"), a)

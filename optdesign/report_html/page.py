@@ -105,7 +105,8 @@ class Page:
         self.figures += 1
         div = pio.to_html(fig, full_html=False, include_plotlyjs=False, include_mathjax=False, config=PLOTLY_CONFIG,
                           div_id=f"fig{next(self._ids)}", default_width="100%",
-                          default_height=f"{int(fig.layout.height or 450)}px", validate=False)
+                          default_height=f"{int(fig.layout.height or 450)}px", validate=False,
+                          auto_play=False)   # a figure with frames (a slider) opens on its first frame
         return f'<div class="{cls}">{div}</div>'
 
     def add_figure(self, fig) -> None:

@@ -167,7 +167,8 @@ def _views_section(page: Page, run: RunData) -> None:
         return
     page.html("<p class=note>Drawn from the mechanism's own inverse kinematics at the centre of W, the corners of its "
               "box and the sample pose where the Jacobian is worst conditioned (the slider picks the pose). Base: grey, "
-              "legs and rods: blue, joints: red, platform: orange; lengths in m.</p>")
+              "each leg's actuated link (rail to slider, crank, strut): green, rods: blue, joints: red, platform: "
+              "orange; lengths in m.</p>")
     page.add_figure(fig)
     alts = [(t, d) for t, d in alternatives(run)]
     if alts:

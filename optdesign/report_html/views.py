@@ -62,8 +62,14 @@ def chosen_poses(run: RunData, params: dict) -> list[tuple[str, np.ndarray]]:
     return poses
 
 
-def _sample(run: RunData, per_axis: int | None = None) -> np.ndarray:
-    """A grid over W (its box, clipped to a cylinder's disc) in SI."""
+#: the most poses a grid over W holds here (a 6-D W: 5 per axis)
+MAX_SAMPLE = 20_000
+
+
+def _sample(run: RunData, per_axis: int | None = None, slice_extra: bool = False) -> np.ndarray:
+    """A grid over W (its box, clipped to a cylinder's disc) in SI, at most
+    MAX_SAMPLE poses; ``slice_extra``: the free axes after the first three at
+    the centre of their ranges (a 3-D slice of a higher-dimensional W)."""
     cfg = run.cfg
     names = mechanism_class(cfg).pose_names
     ws = cfg.workspace
@@ -72,8 +78,14 @@ def _sample(run: RunData, per_axis: int | None = None) -> np.ndarray:
                   tuple(ws.axes[names[2]])]
     else:
         ranges = [tuple(ws.axes[a]) for a in names]
-    nfree = sum(hi > lo for lo, hi in ranges)
+    free = [i for i, (lo, hi) in enumerate(ranges) if hi > lo]
+    if slice_extra:
+        for i in free[3:]:
+            ranges[i] = (0.5 * sum(ranges[i]),) * 2
+        free = free[:3]
+    nfree = len(free)
     n = per_axis or {0: 1, 1: 81, 2: 41}.get(nfree, 15)
+    n = max(2, min(n, int(MAX_SAMPLE ** (1.0 / max(nfree, 1)))))
     grids = [np.linspace(lo, hi, n) if hi > lo else np.array([lo]) for lo, hi in ranges]
     X = np.stack([g.ravel() for g in np.meshgrid(*grids, indexing="ij")], axis=-1)
     if ws.type == "cylinder":
@@ -103,18 +115,22 @@ def _line(chains: list[np.ndarray]) -> np.ndarray:
 def _traces(dr: dict, k: int, order: np.ndarray, scale: float) -> list:
     base = dr["base"][k] * scale
     plat = dr["platform"][k][order] * scale
-    legs = [leg[k] * scale for leg in dr["legs"]] + [r * scale for r in dr["rods"][k]]
+    # each leg's actuated link (rail to slider, crank, or the whole strut) and its rods
+    act = [(leg[k][:-1] if leg.shape[1] > 2 else leg[k]) * scale for leg in dr["legs"]]
+    rods = [r * scale for r in dr["rods"][k]]
     bo = _ordered(dr["base"][k])
     base_loop = np.concatenate([base[bo], base[bo][:1]])
     plat_loop = np.concatenate([plat, plat[:1]])
-    L = _line(legs)
+    L, Ra = _line(act), _line(rods)
     J = dr["joints"][k] * scale
     c = np.nanmean(plat, axis=0) if np.any(np.isfinite(plat)) else np.zeros(3)
     m = len(plat)
     xyz = lambda a: dict(x=a[:, 0], y=a[:, 1], z=a[:, 2])  # noqa: E731
     return [
         go.Scatter3d(**xyz(base_loop), mode="lines", line=dict(color="#555", width=6), name="base", hoverinfo="skip"),
-        go.Scatter3d(**xyz(L), mode="lines", line=dict(color="#1f77b4", width=5), name="legs and rods", hoverinfo="skip"),
+        go.Scatter3d(**xyz(L), mode="lines", line=dict(color="#2ca02c", width=7), name=f"legs: {len(act)} actuated links",
+                     hoverinfo="skip"),
+        go.Scatter3d(**xyz(Ra), mode="lines", line=dict(color="#1f77b4", width=4), name=f"rods ({len(rods)})", hoverinfo="skip"),
         go.Scatter3d(**xyz(J), mode="markers", marker=dict(size=3.5, color="#d62728"), name="joints"),
         go.Mesh3d(x=np.append(plat[:, 0], c[0]), y=np.append(plat[:, 1], c[1]), z=np.append(plat[:, 2], c[2]),
                   i=np.full(m, m), j=np.arange(m), k=(np.arange(m) + 1) % m, color="#ff7f0e", opacity=0.45,
@@ -145,7 +161,8 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
         labels.append(f"{lab}: {where}" + ("" if ok else " (not reachable)"))
     frames = [go.Frame(data=_traces(dr, k, order, scale), name=str(k)) for k in range(len(poses))]
     fig = go.Figure(data=frames[0].data, frames=frames)
-    steps = [dict(method="animate", label=str(k + 1),
+    # the slider's current value names the pose (its tick labels, the same long names, are hidden)
+    steps = [dict(method="animate", label=f"{k + 1} of {len(poses)}: {esc(labels[k])}",
                   args=[[str(k)], dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))])
              for k in range(len(poses))]
     allpts = np.concatenate([dr["joints"].reshape(-1, 3), dr["platform"].reshape(-1, 3)]) * scale
@@ -156,11 +173,8 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
     fig.update_layout(template=TEMPLATE, height=height, title=dict(text=esc(title), x=0.01, y=0.98),
                       margin=dict(l=10, r=10, t=60, b=10), legend=dict(x=0.0, y=0.92),
                       scene=dict(xaxis=axis(0, "x"), yaxis=axis(1, "y"), zaxis=axis(2, "z"), aspectmode="cube"),
-                      sliders=[dict(active=0, steps=steps, currentvalue=dict(prefix="pose "), pad=dict(t=10))],
-                      annotations=[dict(text="<br>".join(f"{k + 1}: {esc(s)}" for k, s in enumerate(labels)),
-                                        xref="paper", yref="paper", x=1.0, y=1.0, xanchor="right", yanchor="top",
-                                        showarrow=False, align="left", font=dict(size=10),
-                                        bgcolor="rgba(255,255,255,0.8)")])
+                      sliders=[dict(active=0, steps=steps, pad=dict(t=10), font=dict(color="rgba(0,0,0,0)"),
+                                    currentvalue=dict(prefix="pose ", font=dict(size=12, color="#222")))])
     return fig
 
 
@@ -181,18 +195,91 @@ def alternatives(run: RunData, count: int = 3) -> list[tuple[str, dict]]:
     return out[:count]
 
 
-def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
-    """W in 3-D (a planar W as its plane in 3-D) at the sample grid's points,
-    coloured by each local index (a menu picks the index)."""
+def _local_values(run: RunData, params: dict, X: np.ndarray) -> dict:
+    """Local indices (SI) of one design at the points X (N, dof): index -> (N,)."""
     cfg = run.cfg
     names = list(mechanism_class(cfg).pose_names)
-    X = _sample(run)
-    if len(X) < 2:
-        return None
     ws = Workspace(WorkspaceSpec(type="box", axes={a: (float(X[:, i].min()), float(X[:, i].max())) for i, a in enumerate(names)},
                                  sampling="grid", points_per_axis=2), tuple(names), X, None)
     with np.errstate(all="ignore"):
         ev = evaluate(cfg, [_design(run, params)], ws, keep_local=True)
+    return {k: np.asarray(ev.local[k][0], float) for k in cfg.indices}
+
+
+def _surface_grid(run: RunData, n: int = 41):
+    """For a W with exactly two free axes: (free axis indices, the two grids,
+    the poses (n*n, dof) in SI, inside mask (n*n,)); None otherwise."""
+    cfg = run.cfg
+    names = mechanism_class(cfg).pose_names
+    ws = cfg.workspace
+    if ws.type == "cylinder":
+        ranges = [(ws.center[0] - ws.radius, ws.center[0] + ws.radius), (ws.center[1] - ws.radius, ws.center[1] + ws.radius),
+                  tuple(ws.axes[names[2]])] + [tuple(ws.axes[a]) for a in names[3:]]
+    else:
+        ranges = [tuple(ws.axes[a]) for a in names]
+    free = [i for i, (lo, hi) in enumerate(ranges) if hi > lo]
+    if len(free) != 2:
+        return None
+    g = [np.linspace(*ranges[i], n) for i in free]
+    A, B = np.meshgrid(g[0], g[1], indexing="xy")          # rows: second axis, columns: first
+    X = np.tile(np.array([0.5 * (lo + hi) for lo, hi in ranges], float), (A.size, 1))
+    X[:, free[0]], X[:, free[1]] = A.ravel(), B.ravel()
+    inside = np.ones(len(X), bool)
+    if ws.type == "cylinder":
+        inside = (X[:, 0] - ws.center[0]) ** 2 + (X[:, 1] - ws.center[1]) ** 2 <= ws.radius ** 2 * (1 + 1e-9)
+    return free, g, X, inside
+
+
+def _surface_figure(run: RunData, params: dict, grid) -> go.Figure:
+    """A 2-D W: one surface per local index over W, its height and colour the index."""
+    cfg = run.cfg
+    names = list(mechanism_class(cfg).pose_names)
+    free, g, X, inside = grid
+    vals = _local_values(run, params, X[inside])
+    disp = [pose_display(cfg, names[i]) for i in free]
+    fig = go.Figure()
+    keys = list(cfg.indices)
+    for j, k in enumerate(keys):
+        v = np.full(len(X), np.nan)
+        v[inside] = vals[k]
+        Z = v.reshape(len(g[1]), len(g[0]))
+        lab = esc(index_label(cfg, k))
+        fig.add_trace(go.Surface(x=g[0] * disp[0][1], y=g[1] * disp[1][1], z=Z, surfacecolor=Z, colorscale="Viridis",
+                                 visible=j == 0, name=esc(k), colorbar=dict(title=dict(text=lab, side="right")),
+                                 hovertemplate=f"{esc(names[free[0]])} = %{{x:.4g}}, {esc(names[free[1]])} = %{{y:.4g}}<br>"
+                                               f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
+    fixed = ", ".join(f"{a} = {X[0, i] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}"
+                      for i, a in enumerate(names) if i not in free)
+    buttons = [dict(label=esc(k), method="update",
+                    args=[{"visible": [i == j for i in range(len(keys))]},
+                          {"scene.zaxis.title.text": esc(index_label(cfg, k))}])
+               for j, k in enumerate(keys)]
+    fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=60, b=10),
+                      title=dict(text=esc("The workspace W as a surface: height and colour a local index of the "
+                                          "weighted-sum optimum" + (f" ({fixed})" if fixed else "")), x=0.01, y=0.98),
+                      scene=dict(xaxis_title=f"{names[free[0]]} [{disp[0][0]}]", yaxis_title=f"{names[free[1]]} [{disp[1][0]}]",
+                                 zaxis_title=esc(index_label(cfg, keys[0])), aspectmode="manual",
+                                 aspectratio=dict(x=1, y=1, z=0.6)),
+                      updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
+    return fig
+
+
+def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
+    """W coloured by each local index of the design (a menu picks the index):
+    a W with two free axes as a surface over it (height and colour the index),
+    otherwise W in 3-D at the sample grid's points."""
+    cfg = run.cfg
+    names = list(mechanism_class(cfg).pose_names)
+    grid = _surface_grid(run)
+    if grid is not None:
+        return _surface_figure(run, params, grid)
+    X = _sample(run, slice_extra=True)
+    if len(X) < 2:
+        return None
+    held = [a for i, a in enumerate(names) if i >= 3 and np.ptp(X[:, i]) == 0 and np.ptp(_sample(run, 2)[:, i]) > 0]
+    parts = [f"{a} = {X[0, names.index(a)] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}" for a in held]
+    cut = "a 3-D slice of W: " + ", ".join(parts) if held else ""
+    vals = _local_values(run, params, X)
     disp = [pose_display(cfg, a) for a in names[:3]]
     C = [X[:, i] * disp[i][1] for i in range(min(3, len(names)))]
     while len(C) < 3:
@@ -201,7 +288,7 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     fig = go.Figure()
     keys = list(cfg.indices)
     for j, k in enumerate(keys):
-        v = np.asarray(ev.local[k][0], float)
+        v = vals[k]
         good = np.isfinite(v)
         fig.add_trace(go.Scatter3d(x=C[0][good], y=C[1][good], z=C[2][good], mode="markers", visible=j == 0, name=esc(k),
                                    marker=dict(size=3 if len(X) > 2000 else 4, color=v[good], colorscale="Viridis",
@@ -210,8 +297,9 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     axes = [f"{names[i]} [{disp[i][0]}]" if i < len(names) else "(plane)" for i in range(3)]
     buttons = [dict(label=esc(k), method="update", args=[{"visible": [i == j for i in range(len(keys))]}])
                for j, k in enumerate(keys)]
-    fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=60, b=10),
-                      title=dict(text="The workspace W coloured by a local index (weighted-sum optimum)", x=0.01, y=0.98),
+    fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=80, b=10),
+                      title=dict(text=esc("The workspace W coloured by a local index (weighted-sum optimum)")
+                                 + (f"<br><sup>{esc(cut)}</sup>" if cut else ""), x=0.01, y=0.99, yanchor="top"),
                       scene=dict(xaxis_title=axes[0], yaxis_title=axes[1], zaxis_title=axes[2]),
                       updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
     return fig
