@@ -100,3 +100,102 @@ def test_report_holds_the_mechanism_in_3d_with_a_slider_and_copy_buttons(tmp_pat
     assert '"sliders":[' in text and 'Plotly.addFrames' in text
     assert "button type=button class=copy data-snippet=" in text and "navigator.clipboard" in text
     assert "The best Pareto alternatives" in text
+    assert "Plotly.animate" not in text          # the slider's figures open on their first pose, no auto-play
+    _check_report_mechanism(text, dst)
+
+
+def _figures(text):
+    import json
+    import re
+
+    dec = json.JSONDecoder()
+    for m in re.finditer(r'Plotly\.newPlot\(\s*"[^"]+",\s*', text):
+        data, end = dec.raw_decode(text, m.end())
+        layout, _ = dec.raw_decode(text[end:].lstrip()[1:].lstrip())
+        yield data, layout
+
+
+def _arr(v):
+    import base64
+
+    if isinstance(v, dict) and "bdata" in v:
+        return np.frombuffer(base64.b64decode(v["bdata"]), dtype=np.dtype(v["dtype"])).astype(float)
+    return np.array([np.nan if x is None else x for x in v], dtype=float)
+
+
+def _segments(trace):
+    """The polylines (k, 3) of a lines trace whose chains are split by NaN (null)."""
+    P = np.stack([_arr(trace[a]) for a in "xyz"], axis=1)
+    cut = np.flatnonzero(~np.all(np.isfinite(P), axis=1))
+    chunks = [c[np.all(np.isfinite(c), axis=1)] for c in np.split(P, cut)]
+    return [c for c in chunks if len(c) >= 2]
+
+
+def _check_report_mechanism(text, run_dir):
+    """The optimum's drawing in report.html: 3 actuated links (rail start to
+    slider, of length |q_i|, the inverse kinematics' stroke at the first pose,
+    the centre of W) and 6 rods of length L, one frame and one slider step per pose."""
+    from optdesign.report_html.rundata import load_run
+
+    figs = [(d, lay) for d, lay in _figures(text) if any(str(t.get("name", "")).startswith("legs: ") for t in d)]
+    assert figs, "no drawing of the mechanism"
+    data, layout = figs[0]
+    legs = next(t for t in data if t["name"].startswith("legs: "))
+    rods = next(t for t in data if t["name"].startswith("rods"))
+    assert legs["type"] == "scatter3d" and any(t["type"] == "mesh3d" for t in data)
+    run = load_run(run_dir)
+    cfg = run.cfg
+    mech = build(cfg, {k: float(v) for k, v in run.results["optimum"].items()})
+    ws = cfg.workspace
+    centre = np.array([ws.center[0], ws.center[1], 0.5 * sum(ws.axes["z"])] if ws.type == "cylinder"
+                      else [0.5 * sum(ws.axes[a]) for a in ("x", "y", "z")])
+    q = mech.inverse(centre[None])[0]
+    seg = _segments(legs)
+    assert len(seg) == 3
+    np.testing.assert_allclose(sorted(np.linalg.norm(c[-1] - c[0]) for c in seg), sorted(np.abs(q)), atol=1e-9)
+    rod_seg = _segments(rods)
+    assert len(rod_seg) == 6
+    np.testing.assert_allclose([np.linalg.norm(c[1] - c[0]) for c in rod_seg], float(mech.L), atol=1e-9)
+    steps = layout["sliders"][0]["steps"]
+    assert steps[0]["label"].startswith("1 of ") and "centre of W" in steps[0]["label"]
+
+
+def test_a_high_dimensional_workspace_is_sampled_within_bounds():
+    from pathlib import Path
+
+    from optdesign.report_html.rundata import RunData
+    from optdesign.report_html.views import MAX_SAMPLE, _sample, _surface_grid
+
+    cfg = load_config("configs/gough_stewart.yaml")
+    run = RunData(Path("."), {}, {"optimum": cfg.design("reference")}, cfg)
+    X = _sample(run)
+    assert 2 ** 6 <= len(X) <= MAX_SAMPLE and X.shape[1] == 6
+    assert np.all(np.ptp(X, axis=0) > 0)
+    S = _sample(run, slice_extra=True)
+    assert np.all(np.ptp(S[:, :3], axis=0) > 0) and np.all(np.ptp(S[:, 3:], axis=0) == 0)
+    assert _surface_grid(run) is None            # six free axes: no surface
+
+
+def test_a_two_dimensional_workspace_is_a_surface_of_the_local_index():
+    from pathlib import Path
+
+    from optdesign.evaluate import workspace_of, evaluate
+    from optdesign.report_html.rundata import RunData
+    from optdesign.report_html.views import workspace_figure
+
+    cfg = load_config("tests/data/p4s_tiny.yaml")
+    d = cfg.design(next(iter(cfg.designs)))
+    run = RunData(Path("."), {}, {"optimum": d}, cfg)
+    fig = workspace_figure(run, d)
+    surf = fig.data[0]
+    assert surf.type == "surface" and len(fig.data) == len(cfg.indices)
+    gx, gy, Z = np.asarray(surf.x, float), np.asarray(surf.y, float), np.asarray(surf.z, float)
+    # at the optimization's own sample points (on the surface's grid) the height is the local index there
+    ws = workspace_of(cfg)
+    ev = evaluate(cfg, [d], ws, keep_local=True)
+    k = next(iter(cfg.indices))
+    v = np.asarray(ev.local[k][0], float)
+    for x, val in zip(ws.X, v):
+        i, j = int(np.argmin(np.abs(gy - x[1]))), int(np.argmin(np.abs(gx - x[0])))
+        assert abs(gx[j] - x[0]) < 1e-12 and abs(gy[i] - x[1]) < 1e-12
+        assert Z[i, j] == pytest.approx(val, rel=1e-9)
