@@ -61,11 +61,18 @@ def design_of(run, name: str) -> tuple[str, dict]:
 
     cfg, res = run.cfg, run.results
     names = ["optimum"] + [n for n in res.get("designs", {}) if isinstance(n, str)]
+    def numbers(values: dict, key: str) -> dict:
+        out = {k: values[k] for k in cfg.design_variables if k in values}
+        for k, v in out.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise UsageError(f"{run.path / 'results.json'}: {key}.{k}: expected a finite number, got {shorten(v)}")
+        return {k: float(v) for k, v in out.items()}
+
     if name == "optimum":
-        return "the weighted-sum optimum", dict(res["optimum"])
+        return "the weighted-sum optimum", numbers(res["optimum"], "optimum")
     d = res.get("designs", {}).get(name)
     if isinstance(d, dict) and isinstance(d.get("parameters"), dict):
-        return f"design {name}", {k: v for k, v in d["parameters"].items() if k in cfg.design_variables}
+        return f"design {name}", numbers(d["parameters"], f"designs.{name}.parameters")
     m = re.fullmatch(r"(.+)_([0-9]{1,9})", name)
     if m and m.group(1) in run.fronts:
         front, k = run.fronts[m.group(1)], int(m.group(2))
@@ -123,7 +130,10 @@ def run(args) -> int:
         raise UsageError(str(exc)) from None
     cfg = run_data.cfg
     label, design = design_of(run_data, args.design)
-    mech = build(cfg, design)
+    try:
+        mech = build(cfg, design)
+    except (ValueError, TypeError) as exc:
+        raise UsageError(f"{run_data.path / 'results.json'}: design {args.design}: {exc}") from None
     if model_module(mech) is None:
         raise UsageError(f"{cfg.source}: mechanism: mechanism {cfg.mechanism!r} has no MuJoCo model "
                          "(the 3-P(4S) and described mechanisms with masses have one)")
