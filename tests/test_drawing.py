@@ -2,6 +2,8 @@
 leg lengths and platform points against the inverse and forward kinematics)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -199,3 +201,36 @@ def test_a_two_dimensional_workspace_is_a_surface_of_the_local_index():
         i, j = int(np.argmin(np.abs(gy - x[1]))), int(np.argmin(np.abs(gx - x[0])))
         assert abs(gx[j] - x[0]) < 1e-12 and abs(gy[i] - x[1]) < 1e-12
         assert Z[i, j] == pytest.approx(val, rel=1e-9)
+
+
+def test_a_copied_designs_snippet_is_the_front_design_in_a_config(tmp_path):
+    """The copy button's snippet, pasted under ``designs:`` of the run's config,
+    loads and gives the front's design (SI) to the printed 12 digits."""
+    import html as html_mod
+    import re
+    import shutil
+
+    import yaml
+
+    from optdesign.report_html.rundata import load_run
+    from optdesign.report_html.report import write_report_html
+
+    src = Path(__file__).resolve().parents[1] / "runs" / "p4s_paper-reproduction"
+    dst = tmp_path / "run"
+    shutil.copytree(src, dst)
+    text = write_report_html(dst).read_text()
+    snippets = [html_mod.unescape(m) for m in re.findall(r'data-snippet="([^"]*)"', text)]
+    assert snippets
+    run = load_run(dst)
+    raw = yaml.safe_load((dst / "config.yaml").read_text())
+    raw["designs"] = {}
+    for snip in snippets:
+        raw["designs"].update(yaml.safe_load(snip))
+    cfg_file = tmp_path / "pasted.yaml"
+    cfg_file.write_text(yaml.safe_dump(raw))
+    cfg = load_config(cfg_file)
+    for name, front in run.fronts.items():
+        for i in range(front.size):
+            got = cfg.design(f"{name}_{i + 1}")
+            for k, a in front.designs.items():
+                assert got[k] == pytest.approx(float(a[i]), rel=1e-11), (name, i, k)

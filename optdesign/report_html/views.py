@@ -328,7 +328,8 @@ def copy_table(run: RunData, front: Front, max_rows: int = 200) -> str:
         rows.append(f"<tr><td>{i + 1}</td>{cells}<td><button type=button class=copy "
                     f"data-snippet=\"{html.escape(snip, quote=True)}\">copy designs: snippet</button></td></tr>")
     more = "" if front.size <= max_rows else f"<p class=note>The first {max_rows} of {front.size} designs.</p>"
-    return (f"<details><summary>The {front.size} designs of this front, each with its <code>designs:</code> "
+    return (f"<details><summary>{'The one design' if front.size == 1 else f'The {front.size} designs'} of this front, "
+            "each with its <code>designs:</code> "
             "snippet to copy</summary><div class=tablewrap style=\"max-height:360px;overflow-y:auto\"><table>"
             f"<tr><th>#</th>{head}<th></th></tr>{''.join(rows)}</table></div>{more}</details>")
 
