@@ -24,11 +24,13 @@ the error is:
 ``unbounded`` (the integrand is not bounded on W, a singular design: cond ->
 inf inside W) is said when a local value at a reachable node is not finite,
 or when the cubature did not converge and the largest local value it found
-grew under refinement without bound in sight: at the end at least ``GROWTH``
-times the largest value of the starting partition's nodes and at least
-``SPIKE`` times the mean (a bounded integrand that the budget does not resolve,
-such as the jump at the edge of the reachable region, keeps its largest value;
-near a singularity cond ~ 1/distance grows as the boxes shrink).  An unbounded index gets the mean +-inf (the sign of its
+grew under refinement without bound in sight: to at least ``GROWTH`` times
+the largest value of the starting partition's nodes and at least ``SPIKE``
+times the mean (a bounded integrand that the budget does not resolve, such as
+the jump at the edge of the reachable region, keeps its largest value; near a
+singularity cond ~ 1/distance grows as the boxes shrink).  From the pass where
+an index grew so, it no longer drives the refinement (the budget goes to the
+other indices).  An unbounded index gets the mean +-inf (the sign of its
 values), never a finite mean.
 """
 from __future__ import annotations
@@ -41,9 +43,9 @@ import numpy as np
 
 __all__ = ["genz_malik", "gauss_kronrod", "CubatureResult", "integrate", "initial_rule", "GROWTH", "SPIKE", "SAFETY"]
 
-#: the error of a box is SAFETY |Q_hi - Q_lo|: on an integrand with kinks (sigma_max of M where two singular
-#: values cross, lambda_min of K where two eigenvalues do) Q_hi converges no faster than Q_lo, and its error
-#: is about |Q_hi - Q_lo| (measured 1.15-1.17 times it on the 3-P(4S) designs, docs/config.md)
+#: the error of a box is SAFETY |Q_hi - Q_lo|: on an integrand with a cone (sigma_max of M and sigma_min of J
+#: where two singular values are equal, at the centre of the 3-P(4S)'s W by its three-fold symmetry) Q_hi
+#: converges no faster than Q_lo, and its error is about |Q_hi - Q_lo| (measured 1.15-1.17 times it, docs/config.md)
 SAFETY = 3.0
 #: an index is unbounded when the largest local value grew by this factor from the starting partition ...
 GROWTH = 100.0
@@ -269,7 +271,9 @@ def integrate(local: Callable, spec, names: tuple[str, ...], D: int, keys, toler
             mean = I[:, 1::2] / den[:, None]                            # (D, K)
             emean = (E[:, 1::2] + np.abs(mean) * E[:, :1]) / np.abs(den[:, None])
             done = (emean <= tol * np.abs(mean)) | ~np.isfinite(emean) & (den[:, None] == 0)
-        done |= nonfinite
+        with np.errstate(all="ignore"):   # grown without bound in sight: unbounded, it no longer drives refinement
+            flagged = (vmaxabs >= GROWTH * first_max) & (vmaxabs >= SPIKE * np.abs(mean))
+        done |= nonfinite | flagged
         if done.all() or used + P * 2 > max_points:
             break
         # each region's share of the remaining error of the undone means, in tolerances
