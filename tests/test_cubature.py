@@ -164,3 +164,31 @@ def test_evaluate_command_shows_unbounded(write_yaml, capsys):
     assert data["designs"]["singular"]["global_indices_status"]["isotropy"] == "unbounded"
     assert data["designs"]["after"]["global_indices_status"]["isotropy"] == "converged"
     assert data["error_method"].startswith("adaptive cubature")
+
+
+def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
+    """results.json["integrals"]: the optimum, the named designs and the
+    extremes, each with the grid's mean and error beside the integral; a
+    singular extreme is unbounded (null mean) and results.md says so."""
+    from optdesign.evaluate import workspace_of
+    from optdesign.optimize.integrals import integral_lines, integrals_of_reported
+
+    cfg = paper_config
+    after, sing = cfg.design("after"), {**cfg.design("after"), **SINGULAR}
+    results = {"optimum": after,
+               "designs": {n: {"parameters": cfg.design(n)} for n in ("before", "after")},
+               "normalization": {"dynamic": {"min_design": after, "max_design": sing}}}
+    rec = integrals_of_reported(cfg, results, workspace_of(cfg))
+    assert set(rec["designs"]) == {"optimum", "before", "after", "dynamic.min", "dynamic.max"}
+    opt = rec["designs"]["optimum"]
+    for k in cfg.indices:
+        q, i = opt["quadrature"][k], opt["integral"][k]
+        assert i["status"] == "converged" and i["error"] <= rec["tolerance"] * abs(i["mean"])
+        assert abs(q["mean"] - i["mean"]) <= q["error"]          # the grid's estimate covers its distance
+    top = rec["designs"]["dynamic.max"]
+    assert top["integral"]["dynamic"]["status"] == "unbounded" and top["integral"]["dynamic"]["mean"] is None
+    assert np.isfinite(top["quadrature"]["dynamic"]["mean"])   # the grid's artifact, kept beside it
+    text = "\n".join(integral_lines(cfg, {"integrals": rec}))
+    assert "| dynamic.max | dynamic |" in text and "unbounded" in text and "`dynamic.max`" in text
+    # a config whose sampling is adaptive needs no second record
+    assert integrals_of_reported(cfg, results, _adaptive(cfg, 1e-3)) is None
