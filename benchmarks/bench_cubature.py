@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from optdesign.config import load_config
-from optdesign.evaluate import adaptive_workspace, evaluate, workspace_of
+from optdesign.evaluate import evaluate, workspace_of
+from optdesign.optimize.integrals import adaptive_workspace
 from optdesign.workspace import WorkspaceSpec, sample
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -30,8 +30,7 @@ from .mechanisms.base import IndexRequest
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 
 __all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests", "check_size", "global_indices_error", "error_method", "adaptive_workspace",
-           "integral_records"]
+           "index_requests", "check_size", "global_indices_error", "error_method"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -281,43 +280,6 @@ def global_indices_error(config: Config, designs, workspace: Workspace | None = 
     ev = evaluate(config, designs, workspace)
     D = ev.reachable.shape[0]
     return [{k: float(ev.error[k][i]) for k in config.indices} for i in range(D)]
-
-
-def adaptive_workspace(config: Config, tolerance: float, max_points: int) -> Workspace:
-    """The config's region W with ``sampling: adaptive`` at ``tolerance`` (relative) and ``max_points``."""
-    import dataclasses
-
-    spec = dataclasses.replace(config.workspace, sampling="adaptive", step=None, points_per_axis=None, points=None,
-                               tolerance=float(tolerance), max_points=int(max_points))
-    return sample(spec, mechanism_class(config).pose_names)
-
-
-def integral_records(config: Config, designs: list[Mapping[str, float]], tolerance: float,
-                     max_points: int) -> list[dict]:
-    """For each design (parameter mappings, SI), every index's integral mean
-    over W by adaptive cubature, one design at a time (a singular design spends
-    its own budget): ``{index: {"mean", "error", "status"}, "reachable_fraction",
-    "points"}``; an ``unbounded`` index has mean and error None (JSON null),
-    never a finite mean."""
-    ws = adaptive_workspace(config, tolerance, max_points)
-    requests = index_requests(config)
-    out = []
-    for d in designs:
-        full = _stack_designs(config, [d])
-        mech = mechanism_class(config)(**{**config.parameters, **{k: v[:, None] for k, v in full.items()}})
-        res = integrate(lambda X: _local_values(mech, X, requests, 1), ws.spec, ws.names, 1,
-                        [r.name for r in requests], tolerance, max_points)
-        rec = {}
-        for k in res.mean:
-            st = str(res.status[k][0])
-            finite = st in ("converged", "not_converged")
-            rec[k] = {"mean": float(res.mean[k][0]) if finite else None,
-                      "error": float(res.error[k][0]) if finite else None, "status": st,
-                      "max": float(res.max[k][0])}
-        rec["reachable_fraction"] = float(res.reachable_fraction[0])
-        rec["points"] = res.points
-        out.append(rec)
-    return out
 
 
 class Evaluator:

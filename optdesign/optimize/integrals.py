@@ -12,12 +12,48 @@ already adaptive gets no second record (its global indices are the integrals).
 """
 from __future__ import annotations
 
-from ..evaluate import adaptive_workspace, error_method, evaluate, integral_records
+import dataclasses
+import math
 
-__all__ = ["integrals_of_reported", "TOLERANCE", "MAX_POINTS", "integral_lines", "integral_table"]
+from ..evaluate import error_method, evaluate, mechanism_class
+from ..workspace import sample
+
+__all__ = ["integrals_of_reported", "TOLERANCE", "MAX_POINTS", "integral_lines", "integral_table",
+           "adaptive_workspace", "integral_records"]
 
 #: relative tolerance and node budget (per design) of the recorded integrals
 TOLERANCE, MAX_POINTS = 1e-4, 200_000
+
+
+def adaptive_workspace(config, tolerance: float, max_points: int):
+    """The config's region W with ``sampling: adaptive`` at ``tolerance`` (relative) and ``max_points``."""
+    spec = dataclasses.replace(config.workspace, sampling="adaptive", step=None, points_per_axis=None, points=None,
+                               tolerance=float(tolerance), max_points=int(max_points))
+    return sample(spec, mechanism_class(config).pose_names)
+
+
+def integral_records(config, designs, tolerance: float, max_points: int) -> list[dict]:
+    """For each design (full parameter mappings, SI), every index's integral
+    mean over W by adaptive cubature, one design at a time (a singular design
+    spends its own budget): ``{index: {"mean", "error", "status", "max"},
+    "reachable_fraction", "points"}``; an ``unbounded`` index has mean and
+    error None (JSON null), never a finite mean."""
+    ws = adaptive_workspace(config, tolerance, max_points)
+    out = []
+    for d in designs:
+        ev = evaluate(config, [d], ws)
+        rec = {}
+        for k in config.indices:
+            st = str(ev.status[k][0])
+            finite = st in ("converged", "not_converged")
+            m, e = float(ev.summary[k]["mean"][0]), float(ev.error[k][0])
+            rec[k] = {"mean": m if finite and math.isfinite(m) else None,
+                      "error": e if finite and math.isfinite(e) else None,
+                      "status": st, "max": float(ev.summary[k]["max"][0])}
+        rec["reachable_fraction"] = float(ev.reachable_fraction[0])
+        rec["points"] = int(ev.summary[next(iter(config.indices))]["count"][0])
+        out.append(rec)
+    return out
 
 
 def _designs(results: dict, parameters) -> dict[str, dict]:
