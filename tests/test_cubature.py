@@ -189,6 +189,6 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     assert top["integral"]["dynamic"]["status"] == "unbounded" and top["integral"]["dynamic"]["mean"] is None
     assert np.isfinite(top["quadrature"]["dynamic"]["mean"])   # the grid's artifact, kept beside it
     text = "\n".join(integral_lines(cfg, {"integrals": rec}))
-    assert "| dynamic.max | dynamic |" in text and "unbounded" in text and "`dynamic.max`" in text
+    assert "| dynamic.max | dynamic [kg] |" in text and "unbounded" in text and "`dynamic.max`" in text
     # a config whose sampling is adaptive needs no second record
     assert integrals_of_reported(cfg, results, _adaptive(cfg, 1e-3)) is None

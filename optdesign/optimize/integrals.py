@@ -73,6 +73,8 @@ def integrals_of_reported(cfg, results: dict, ws) -> dict | None:
     """``{"method", "tolerance", "max_points", "quadrature", "quadrature_error_method", "designs": {key: {"design",
     "quadrature": {index: {"mean", "error"}}, "integral": {index: {"mean", "error", "status", "max"}},
     "reachable_fraction", "points"}}}``; None when the config's sampling is adaptive."""
+    from ..units import pose_display
+
     if ws.spec.sampling == "adaptive":
         return None
     designs = _designs(results, {k: dv.value for k, dv in cfg.design_variables.items()})
@@ -88,7 +90,7 @@ def integrals_of_reported(cfg, results: dict, ws) -> dict | None:
                     "integral": {k: rec[k] for k in cfg.indices},
                     "reachable_fraction": rec["reachable_fraction"], "points": rec["points"]}
     return {"method": error_method(adaptive_workspace(cfg, TOLERANCE, MAX_POINTS)), "tolerance": TOLERANCE,
-            "max_points": MAX_POINTS, "quadrature": ws.describe(), "quadrature_error_method": error_method(ws),
+            "max_points": MAX_POINTS, "quadrature": ws.describe({a: pose_display(cfg, a) for a in ws.names}), "quadrature_error_method": error_method(ws),
             "designs": out}
 
 
@@ -100,6 +102,8 @@ def _cell(v, e) -> str:
 
 def integral_table(cfg, results: dict, keys=None) -> str:
     """The Markdown table of ``results["integrals"]`` (the designs of ``keys``, default all)."""
+    from ..units import index_label
+
     rec = results["integrals"]
     rows = ["| design | index | quadrature ± error | integral ± error | status |", "|---|---|---|---|---|"]
     for key, r in rec["designs"].items():
@@ -108,7 +112,7 @@ def integral_table(cfg, results: dict, keys=None) -> str:
         for k in cfg.indices:
             q, i = r["quadrature"][k], r["integral"][k]
             val = "unbounded" if i["status"] == "unbounded" else _cell(i["mean"], i["error"])
-            rows.append(f"| {key} | {k} | {_cell(q['mean'], q['error'])} | {val} | {i['status'].replace('_', ' ')} |")
+            rows.append(f"| {key} | {index_label(cfg, k)} | {_cell(q['mean'], q['error'])} | {val} | {i['status'].replace('_', ' ')} |")
     return "\n".join(rows)
 
 
