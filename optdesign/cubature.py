@@ -41,12 +41,14 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["genz_malik", "gauss_kronrod", "CubatureResult", "integrate", "initial_rule", "GROWTH", "SPIKE", "SAFETY"]
+__all__ = ["genz_malik", "gauss_kronrod", "CubatureResult", "integrate", "initial_rule", "GROWTH", "SPIKE", "SAFETY", "CALL_PAIRS"]
 
 #: the error of a box is SAFETY |Q_hi - Q_lo|: on an integrand with a cone (sigma_max of M and sigma_min of J
 #: where two singular values are equal, at the centre of the 3-P(4S)'s W by its three-fold symmetry) Q_hi
 #: converges no faster than Q_lo, and its error is about |Q_hi - Q_lo| (measured 1.15-1.17 times it, docs/config.md)
 SAFETY = 3.0
+#: the most (node, design) pairs of one call of the index path (its memory: 250-500 bytes a pair on numpy)
+CALL_PAIRS = 1_000_000
 #: an index is unbounded when the largest local value grew by this factor from the starting partition ...
 GROWTH = 100.0
 #: ... to at least this many times the mean (and the cubature did not converge)
@@ -286,7 +288,7 @@ def integrate(local: Callable, spec, names: tuple[str, ...], D: int, keys, toler
         order = np.argsort(-score)
         cum = np.cumsum(score[order])
         n_split = int(np.searchsorted(cum, 0.5 * cum[-1])) + 1
-        n_split = max(1, min(n_split, (max_points - used) // (2 * P), 4096))
+        n_split = max(1, min(n_split, (max_points - used) // (2 * P), CALL_PAIRS // (2 * P * D)))
         pick = order[:n_split]
         # the axis to split: the largest fourth difference, weighted like the score
         with np.errstate(all="ignore"):

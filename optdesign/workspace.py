@@ -197,8 +197,8 @@ def point_count(spec: WorkspaceSpec, names: tuple[str, ...]) -> int:
         return 2 * n ** (free + 2) if spec.type == "cylinder" else n ** free
     if spec.sampling == "rqmc":
         return int(spec.points) * int(spec.scramblings)
-    if spec.sampling == "adaptive":
-        return int(spec.max_points)
+    if spec.sampling == "adaptive":     # the starting boxes' nodes (each refinement call stays below CALL_PAIRS)
+        return int(initial_rule(spec, names)[1].shape[0])
     if spec.sampling != "grid":
         return int(spec.points)
     if spec.type == "box":
