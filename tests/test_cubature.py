@@ -192,3 +192,13 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     assert "| dynamic.max | dynamic [kg] |" in text and "unbounded" in text and "`dynamic.max`" in text
     # a config whose sampling is adaptive needs no second record
     assert integrals_of_reported(cfg, results, _adaptive(cfg, 1e-3)) is None
+
+
+def test_a_cylinder_with_a_height_range():
+    """Three polar coordinates (Genz-Malik in 3-D): the mean of x^2 z over the
+    disc of radius 2 times z in [1, 3] is (R^2 / 4) * 2 = 2."""
+    spec = WorkspaceSpec(type="cylinder", axes={"z": (1.0, 3.0)}, radius=2.0, sampling="adaptive", tolerance=1e-9)
+    res = integrate(lambda X: ({"a": (X[:, 0] ** 2 * X[:, 2])[None, :]}, np.ones((1, X.shape[0]), bool)),
+                    spec, ("x", "y", "z"), 1, ["a"], 1e-9, 100_000)
+    assert res.status["a"][0] == "converged" and res.reachable_fraction[0] == 1.0
+    assert abs(res.mean["a"][0] - 2.0) <= res.error["a"][0] <= 2e-9
