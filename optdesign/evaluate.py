@@ -93,7 +93,8 @@ class Evaluation:
     workspace: Workspace
     error: dict[str, np.ndarray] | None = None
     error_method: str = ""
-    #: ``sampling: adaptive``: ``{index: (D,) str}``, ``converged``, ``not_converged``, ``unbounded``
+    #: ``sampling: adaptive``: the summary, errors and reachable fraction are the cubature's; ``reachable``
+    #: and ``local`` are at the starting boxes' nodes (``workspace.X``); ``status`` is ``{index: (D,) str}``, ``converged``, ``not_converged``, ``unbounded``
     #: or ``unreachable`` (see :mod:`optdesign.cubature`); None for fixed rules
     status: dict[str, np.ndarray] | None = None
 
