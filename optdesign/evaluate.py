@@ -23,6 +23,7 @@ from typing import Mapping
 import numpy as np
 
 from .config import Config, ConfigError
+from .cubature import integrate
 from .indices import INDEX_KINDS, global_summary, local_index, weighted_summary
 from .mechanisms import Mechanism, get
 from .mechanisms.base import IndexRequest
@@ -92,6 +93,10 @@ class Evaluation:
     workspace: Workspace
     error: dict[str, np.ndarray] | None = None
     error_method: str = ""
+    #: ``sampling: adaptive``: the summary, errors and reachable fraction are the cubature's; ``reachable``
+    #: and ``local`` are at the starting boxes' nodes (``workspace.X``); ``status`` is ``{index: (D,) str}``, ``converged``, ``not_converged``, ``unbounded``
+    #: or ``unreachable`` (see :mod:`optdesign.cubature`); None for fixed rules
+    status: dict[str, np.ndarray] | None = None
 
 
 def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
@@ -183,6 +188,18 @@ def _evaluate(cls: type[Mechanism], fixed: Mapping[str, float], full: dict[str, 
     return mech, summary, reach, local
 
 
+def _adaptive(mech: Mechanism, ws: Workspace, requests: list[IndexRequest], D: int, summary: dict):
+    """``sampling: adaptive``: the cubature's means over W replace the starting
+    rule's in ``summary`` (in place); returns (reachable fraction (D,), errors, statuses)."""
+    spec = ws.spec
+    res = integrate(lambda X: _local_values(mech, X, requests, D), spec, ws.names, D, [r.name for r in requests],
+                    spec.tolerance, spec.max_points)
+    for k in res.mean:
+        summary[k] = {"mean": res.mean[k], "min": res.min[k], "max": res.max[k], "std": res.std[k],
+                      "count": res.count}
+    return res.reachable_fraction, res.error, res.status
+
+
 def _errors(mech: Mechanism, ws: Workspace, requests: list[IndexRequest], D: int, summary: dict) -> dict:
     """The error estimate (D,) of each mean of ``summary`` by the workspace's
     error rule (see :class:`~optdesign.workspace.ErrorRule`)."""
@@ -225,6 +242,9 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
         raise ConfigError(config.source, "workspace", str(exc)) from None
     requests = index_requests(config, index_names)
     mech, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws, requests, keep_local)
+    if ws.spec.sampling == "adaptive":
+        frac, err, status = _adaptive(mech, ws, requests, reach.shape[0], summary)
+        return Evaluation(summary, reach, frac, local, ws, err if errors else None, error_method(ws), status)
     err = _errors(mech, ws, requests, reach.shape[0], summary) if errors else None
     return Evaluation(summary, reach, ws.fraction(reach), local, ws, err, error_method(ws))
 
@@ -245,6 +265,8 @@ def evaluate_named(config: Config, names=None, workspace: Workspace | None = Non
         rec = {k: {s: float(v[s][i]) for s in ("mean", "min", "max", "std")} for k, v in ev.summary.items()}
         rec["reachable_fraction"] = float(ev.reachable_fraction[i])
         rec["global_indices_error"] = {k: float(v[i]) for k, v in ev.error.items()}
+        if ev.status is not None:
+            rec["global_indices_status"] = {k: str(v[i]) for k, v in ev.status.items()}
         out[n] = rec
     return out
 
@@ -346,7 +368,10 @@ class Evaluator:
         check_size(self.workspace.n, np.atleast_2d(X).shape[0])
         designs = self.designs(X)
         mech, summary, reach, _ = _evaluate(self.mechanism, self.fixed, designs, self.workspace, self.requests_all)
-        frac = self.workspace.fraction(reach)
+        if self.workspace.spec.sampling == "adaptive":   # the integrals to the tolerance; an unbounded one is inf
+            frac = _adaptive(mech, self.workspace, self.requests_all, reach.shape[0], summary)[0]
+        else:
+            frac = self.workspace.fraction(reach)
         vals = {k: summary[k]["mean"] for k in self.index_names}
         if self._cond is not None:
             cmax = summary[self._cond]["max"]

@@ -13,7 +13,11 @@ times a range or a value on the third).  Points
 * ``rqmc``: ``scramblings`` independently scrambled Sobol sets of ``points``
   each (seeded), every point the same weight;
 * quasi-random (scipy.stats.qmc Sobol, Halton, Latin hypercube; seeded) or
-  pseudo-random (numpy, seeded).
+  pseudo-random (numpy, seeded);
+* ``adaptive``: no fixed points; each global index is integrated to a relative
+  ``tolerance`` by adaptive cubature (:mod:`optdesign.cubature`, at most
+  ``max_points`` nodes).  The sample holds the nodes of the cubature's starting
+  partition (a fixed rule, for the paths that need points).
 
 Each sample carries an :class:`ErrorRule`, how the error of its mean against
 the integral is estimated (see :func:`sample`).
@@ -24,6 +28,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from .cubature import initial_rule
 
 __all__ = ["WorkspaceSpec", "Workspace", "Rule", "ErrorRule", "sample", "gauss_legendre", "point_count",
            "MAX_POINTS", "WorkspaceTooLarge"]
@@ -61,6 +67,8 @@ class WorkspaceSpec:
     center: tuple[float, float] = (0.0, 0.0)
     unit: str | None = None
     scramblings: int = 8
+    tolerance: float | None = None      # adaptive: relative tolerance of each global index
+    max_points: int = 200_000           # adaptive: the most nodes per evaluation
 
 
 @dataclass(frozen=True)
@@ -91,7 +99,9 @@ class ErrorRule:
       whose union is the sample);
     * ``sample`` (sobol, halton, lhs, random): ``std / sqrt(count)``, the
       Monte Carlo standard error (exact for random points; for one
-      quasi-random set it overstates the error, which it cannot estimate).
+      quasi-random set it overstates the error, which it cannot estimate);
+    * ``adaptive``: the adaptive cubature's own estimate (the sum over its
+      boxes of |Q_7 - Q_5|, propagated to the mean; :mod:`optdesign.cubature`).
     """
 
     method: str
@@ -159,6 +169,8 @@ class Workspace:
             how = f"grid step {num(step_axis, s.step)}" if s.step else f"grid {s.points_per_axis}/axis"
         elif s.sampling == "gauss":
             how = f"Gauss-Legendre {s.points_per_axis}/axis"
+        elif s.sampling == "adaptive":
+            how = f"adaptive cubature, tolerance {s.tolerance:g} (relative), at most {s.max_points} nodes"
         elif s.sampling == "rqmc":
             how = f"rqmc {s.points} pts x {s.scramblings} scramblings seed {s.seed}"
         else:
@@ -185,6 +197,8 @@ def point_count(spec: WorkspaceSpec, names: tuple[str, ...]) -> int:
         return 2 * n ** (free + 2) if spec.type == "cylinder" else n ** free
     if spec.sampling == "rqmc":
         return int(spec.points) * int(spec.scramblings)
+    if spec.sampling == "adaptive":     # the starting boxes' nodes (each refinement call stays below CALL_PAIRS)
+        return int(initial_rule(spec, names)[1].shape[0])
     if spec.sampling != "grid":
         return int(spec.points)
     if spec.type == "box":
@@ -306,6 +320,8 @@ def _rqmc(spec: WorkspaceSpec, names: tuple[str, ...], dim: int, to_points) -> W
     return Workspace(spec, names, X, None, None, err)
 
 
+_ADAPTIVE = ("adaptive cubature (Genz-Malik 7/5, Gauss-Kronrod 15/7 on one axis): 3 x the sum of |Q_hi - Q_lo| "
+             "over its boxes, to a relative tolerance {:g}")
 _SAMPLE_ERROR = ErrorRule("sample", (), 1.0, "std / sqrt(points), the Monte Carlo standard error")
 
 
@@ -315,6 +331,9 @@ def sample(spec: WorkspaceSpec, names: tuple[str, ...]) -> Workspace:
     n = point_count(spec, names)
     if n > MAX_POINTS:
         raise WorkspaceTooLarge(f"the workspace has {n:,} points; at most {MAX_POINTS:,} are allowed")
+    if spec.sampling == "adaptive":
+        X, w = initial_rule(spec, names)
+        return Workspace(spec, names, X, None, w, ErrorRule("adaptive", (), 1.0, _ADAPTIVE.format(spec.tolerance)))
     if spec.type == "box":
         ranges = [spec.axes[a] for a in names]
         free = [i for i, (lo, hi) in enumerate(ranges) if hi > lo]

@@ -28,7 +28,12 @@ def comparison_rows(cfg, results: dict) -> list[list[str]]:
             paper = ref.get(iname)
             rel = (v["mean"] - paper) / paper if paper else None
             err = rec.get("global_indices_error", {}).get(iname)
-            rows.append([dname, iname, fmt(v["mean"]), fmt_g(err, 2) if err is not None else "-",
+            status = rec.get("global_indices_status", {}).get(iname)   # sampling: adaptive
+            mean = "unbounded" if status == "unbounded" else fmt(v["mean"])
+            e = "inf" if status == "unbounded" else (fmt_g(err, 2) if err is not None else "-")
+            if status == "not_converged":
+                e += " (nc)"
+            rows.append([dname, iname, mean, e,
                          fmt(paper) if paper is not None else "-",
                          f"{100 * rel:+.2f}%" if rel is not None else "-"])
     return rows
@@ -57,6 +62,8 @@ def run(args) -> int:
         for n, rec in res.items():
             d = {k: rec[k] for k in cfg.indices}
             d["global_indices_error"] = {k: rec["global_indices_error"][k] for k in cfg.indices}
+            if "global_indices_status" in rec:
+                d["global_indices_status"] = rec["global_indices_status"]
             d["reachable_fraction"] = rec["reachable_fraction"]
             d["parameters"] = cfg.design(n)
             if n in cfg.reference:
@@ -71,6 +78,9 @@ def run(args) -> int:
     shown = {a: pose_display(cfg, a) for a in ws.names}   # the workspace in the config's units, each named
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe(shown)}")
     print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
+    if ws.spec.sampling == "adaptive":
+        print("unbounded: the integrand is not bounded on W (a singularity inside W); "
+              "(nc): the tolerance was not reached within max_points")
     headers = ["design", "index", "mean", "±", "reference", "rel. diff"]
     rows = comparison_rows(cfg, res)
     for r in rows:   # the index with its unit (SI)

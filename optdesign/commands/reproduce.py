@@ -37,6 +37,14 @@ def run(args) -> int:
             print()
             print("Beside the paper's values (the config's reference):")
             print_text(ref)
+        if r.get("integrals"):
+            from ..optimize.integrals import integral_table
+
+            keys = ["optimum"] + list(r.get("designs") or {})
+            print()
+            print(f"The integral over W (adaptive cubature, relative tolerance {r['integrals']['tolerance']:g}) "
+                  "beside the config's quadrature:")
+            print_text(integral_table(cfg, r, keys))
         ref_f = [f"{v['objective']} ({n})" for n, v in (r.get("reference") or {}).items()
                  if isinstance(v, dict) and isinstance(v.get("objective"), (int, float))]
         print()

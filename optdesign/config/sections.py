@@ -10,14 +10,19 @@ from .schema import OptimizerSpec
 __all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
 
 WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
-           "center", "unit", "scramblings"}
-SAMPLING = {"grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random"}
+           "center", "unit", "scramblings", "tolerance", "max_points"}
+SAMPLING = {"grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random", "adaptive"}
+#: adaptive sampling: the default relative tolerance and node budget, the range of the tolerance
+ADAPTIVE_TOLERANCE, ADAPTIVE_MAX_POINTS, TOLERANCE_RANGE = 1e-3, 200_000, (1e-10, 0.5)
 #: most points a workspace sample may have
 #: keys that a sampling does not take (a mistake to give)
 _NOT_FOR = {
     "gauss": {"step": "a Gauss rule places points_per_axis nodes per axis",
               "points": "a Gauss rule places points_per_axis nodes per axis",
               "seed": "a Gauss rule is not random", "scramblings": "only rqmc sampling is scrambled"},
+    "adaptive": {"step": "adaptive cubature places its own nodes", "points_per_axis": "adaptive cubature places its own nodes",
+                 "points": "adaptive cubature places its own nodes (its budget is 'max_points')",
+                 "seed": "adaptive cubature is not random"},
     "rqmc": {"step": "rqmc places 'points' Sobol points per scrambling",
              "points_per_axis": "rqmc places 'points' Sobol points per scrambling"},
 }
@@ -90,14 +95,25 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             r.fail(f"{path}.{key}", f"not used by sampling '{sampling}' ({why}); remove it")
     if "scramblings" in ws and sampling != "rqmc":
         r.fail(f"{path}.scramblings", f"only sampling 'rqmc' takes scramblings, not '{sampling}'")
+    for key in ("tolerance", "max_points"):
+        if key in ws and sampling != "adaptive":
+            r.fail(f"{path}.{key}", f"only sampling 'adaptive' takes {key}, not '{sampling}'")
     step = ppa = pts = None
     scramblings = 8
+    tolerance, max_points = None, ADAPTIVE_MAX_POINTS
     free = sum(1 for lo, hi in axes.values() if hi > lo)
     if sampling == "gauss":
         ppa = r.integer(r.require(ws, "points_per_axis", path), f"{path}.points_per_axis", minimum=2, maximum=10_000)
         total = (2 * ppa ** (free + 2)) if wtype == "cylinder" else ppa ** free
         if total > MAX_POINTS:
             r.fail(f"{path}.points_per_axis", f"{ppa} nodes per axis give {show(total)} points; expected at most {MAX_POINTS:,}")
+    elif sampling == "adaptive":
+        tolerance = r.number(ws.get("tolerance", ADAPTIVE_TOLERANCE), f"{path}.tolerance")
+        lo, hi = TOLERANCE_RANGE
+        if not lo <= tolerance <= hi:
+            r.fail(f"{path}.tolerance", f"expected a relative tolerance in [{lo:g}, {hi:g}], got {show(ws['tolerance'])}")
+        max_points = r.integer(ws.get("max_points", ADAPTIVE_MAX_POINTS), f"{path}.max_points", minimum=1000,
+                               maximum=MAX_POINTS)
     elif sampling == "rqmc":
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=2, maximum=MAX_POINTS)
         if pts & (pts - 1):
@@ -130,7 +146,8 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=MAX_POINTS)
     seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0, maximum=2 ** 32 - 1)
     spec = WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
-                         points=pts, seed=seed, radius=radius, center=center, unit=unit, scramblings=scramblings)
+                         points=pts, seed=seed, radius=radius, center=center, unit=unit, scramblings=scramblings,
+                         tolerance=tolerance, max_points=max_points)
     n = point_count(spec, names)
     if n > MAX_POINTS:
         key = "step" if step is not None else ("points_per_axis" if ppa is not None else "points")

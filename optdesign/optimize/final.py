@@ -90,6 +90,8 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
         inside = terms_in_range(v, lo, hi)
         designs[n] = {"parameters": cfg.design(n), "global_indices": summ(j + 1),
                       "global_indices_error": err(j + 1),
+                      **({"global_indices_status": {k: str(ev.status[k][j + 1]) for k in cfg.indices}}
+                         if ev.status else {}),
                       "reachable_fraction": float(ev.reachable_fraction[j + 1]),
                       "objective": float(ours[j + 1]) if inside else None,
                       "objective_paper_literal": float(literal[j + 1]) if inside else None}
@@ -104,6 +106,7 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
         "objective_paper_literal": float(literal[0]),
         "global_indices": {k: float(vals[k][0]) for k in cfg.indices},
         "global_indices_error": err(0),
+        **({"global_indices_status": {k: str(ev.status[k][0]) for k in cfg.indices}} if ev.status else {}),
         "error_method": error_method(ws),
         "global_index_summary": summ(0),
         "reachable_fraction": float(ev.reachable_fraction[0]),

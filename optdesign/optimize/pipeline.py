@@ -317,6 +317,12 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         stages = {st.name: stages[st.name] for st in plan}
         progress.phase("final results: the optimum and the extremes checked and polished ...", "final results …")
         results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish)
+        progress.phase("integrals: every reported design's indices by adaptive cubature ...", "integrals …")
+        from .integrals import integrals_of_reported
+
+        integrals = integrals_of_reported(cfg, results, ws)
+        if integrals is not None:
+            results["integrals"] = integrals
         progress.phase("certificates: every reported design over the continuous workspace ...", "certificates …")
         from ..certify.reported import certify_reported
 

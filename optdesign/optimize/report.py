@@ -174,6 +174,9 @@ def format_results(cfg: Config, results: dict) -> str:
     lines += extremes_lines(cfg, results) + optimality_lines(cfg, results)
     lines += _pareto_lines(cfg, results)
     lines += certificate_lines(cfg, results)
+    from .integrals import integral_lines
+
+    lines += integral_lines(cfg, results)
     lines.append("")
     return "\n".join(lines)
 
