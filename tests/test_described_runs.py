@@ -19,6 +19,8 @@ def _tiny(tmp_path, name):
     cfg["workspace"]["points"] = 64
     cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1,
                             pareto={"algorithms": ["nsga2"], "population": 6, "generations": 2})
+    # small proofs and coarse integrals: what is checked here is that the run finishes and repeats
+    cfg["checks"] = {"certificate_budget": 400, "integral_tolerance": 0.05, "integral_max_points": 500}
     f = tmp_path / name
     f.write_text(yaml.safe_dump(cfg, sort_keys=False))
     return f

@@ -21,12 +21,13 @@ from ..names import name_problem, safe_default_name
 from . import yamlsafe
 from .reader import SMALLEST, UNITS, ConfigError, Reader, join, show, suggest
 from .schema import Config, DesignVariable, IndexSpec
+from .checks import checks_section
 from .sections import optimizer_section, workspace_section
 
 __all__ = ["load_config", "parse_config", "from_mapping"]
 
 TOP_KEYS = {"mechanism", "name", "description", "parameters", "design_variables", "designs",
-            "workspace", "indices", "optimizer", "reference"}
+            "workspace", "indices", "optimizer", "reference", "checks"}
 
 
 def load_config(path: str | os.PathLike) -> Config:
@@ -197,7 +198,8 @@ def from_mapping(data: Any, source: str) -> Config:
 
     return Config(mechanism_class=mech_cls, source=source, mechanism=mech_name, name=name, parameters=params,
                   design_variables=dvs, designs=designs, workspace=workspace, indices=indices,
-                  optimizer=optimizer, reference=reference, raw=dict(data))
+                  optimizer=optimizer, reference=reference, raw=dict(data),
+                  checks=checks_section(r, data.get("checks")))
 
 
 def _units(r: Reader, v: Mapping, path: str, decl) -> float:

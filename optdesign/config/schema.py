@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..workspace import WorkspaceSpec
+from .checks import ChecksSpec
 from .reader import UNITS, ConfigError
 
 __all__ = ["DesignVariable", "IndexSpec", "OptimizerSpec", "Config", "WorkspaceSpec"]
@@ -85,6 +86,8 @@ class Config:
     mechanism_class: Any = field(default=None, repr=False, compare=False)
     #: the text of the file as read (None for a config built from a mapping)
     text: str | None = field(default=None, repr=False, compare=False)
+    #: how hard a run checks its reported designs (certificates, integrals)
+    checks: ChecksSpec = field(default_factory=ChecksSpec)
 
     @property
     def free_variables(self) -> list[DesignVariable]:

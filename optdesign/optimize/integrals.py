@@ -5,7 +5,8 @@ A fixed rule (the paper's 11 x 11 grid) reproduces the paper's numbers, but
 its mean is not the integral of eq. 29, and a design singular between its
 points gets a finite mean there.  For the optimum, each named design and each
 normalization extreme, the integral by adaptive cubature to a relative
-``TOLERANCE`` (:mod:`optdesign.cubature`) is recorded beside the config's
+tolerance (the config's ``checks.integral_tolerance``, default
+``TOLERANCE``; :mod:`optdesign.cubature`) is recorded beside the config's
 mean and its error estimate; an index whose integrand is unbounded on W is
 recorded ``unbounded``, never as a finite mean.  A config whose sampling is
 already adaptive gets no second record (its global indices are the integrals).
@@ -15,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from ..config.checks import ChecksSpec
 from ..evaluate import error_method, evaluate, mechanism_class
 from ..workspace import sample
 
@@ -22,7 +24,7 @@ __all__ = ["integrals_of_reported", "TOLERANCE", "MAX_POINTS", "integral_lines",
            "adaptive_workspace", "integral_records"]
 
 #: relative tolerance and node budget (per design) of the recorded integrals
-TOLERANCE, MAX_POINTS = 1e-4, 200_000
+TOLERANCE, MAX_POINTS = ChecksSpec.integral_tolerance, ChecksSpec.integral_max_points
 
 
 def adaptive_workspace(config, tolerance: float, max_points: int):
@@ -75,12 +77,13 @@ def integrals_of_reported(cfg, results: dict, ws) -> dict | None:
     "reachable_fraction", "points"}}}``; None when the config's sampling is adaptive."""
     from ..units import pose_display
 
-    if ws.spec.sampling == "adaptive":
+    tol, cap = cfg.checks.integral_tolerance, cfg.checks.integral_max_points
+    if ws.spec.sampling == "adaptive" or tol == 0:
         return None
     designs = _designs(results, {k: dv.value for k, dv in cfg.design_variables.items()})
     full = [{**{k: dv.value for k, dv in cfg.design_variables.items()}, **d} for d in designs.values()]
     ev = evaluate(cfg, full, ws)
-    recs = integral_records(cfg, full, TOLERANCE, MAX_POINTS)
+    recs = integral_records(cfg, full, tol, cap)
     out = {}
     for j, (key, d) in enumerate(designs.items()):
         rec = recs[j]
@@ -89,8 +92,8 @@ def integrals_of_reported(cfg, results: dict, ws) -> dict | None:
                                    for k in cfg.indices},
                     "integral": {k: rec[k] for k in cfg.indices},
                     "reachable_fraction": rec["reachable_fraction"], "points": rec["points"]}
-    return {"method": error_method(adaptive_workspace(cfg, TOLERANCE, MAX_POINTS)), "tolerance": TOLERANCE,
-            "max_points": MAX_POINTS, "quadrature": ws.describe({a: pose_display(cfg, a) for a in ws.names}), "quadrature_error_method": error_method(ws),
+    return {"method": error_method(adaptive_workspace(cfg, tol, cap)), "tolerance": tol,
+            "max_points": cap, "quadrature": ws.describe({a: pose_display(cfg, a) for a in ws.names}), "quadrature_error_method": error_method(ws),
             "designs": out}
 
 

@@ -326,7 +326,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         progress.phase("certificates: every reported design over the continuous workspace ...", "certificates …")
         from ..certify.reported import certify_reported
 
-        results["certificates"] = certify_reported(evaluator, results, stages)
+        results["certificates"] = certify_reported(evaluator, results, stages, base=cfg.checks.certificate_budget)
         wall = round(wall_before + time.perf_counter() - t0, 3)
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
         results.update(wall_time_s=wall, evaluations=evals)
