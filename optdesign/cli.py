@@ -19,7 +19,7 @@ from .config import ConfigError
 
 #: order in which commands are listed in --help
 _ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
-          "bench", "validate-config", "validate-dynamics"]
+          "status", "bench", "validate-config", "validate-dynamics"]
 
 
 class _Parser(argparse.ArgumentParser):
