@@ -30,7 +30,7 @@ def test_convergence_is_on_a_log_axis_not_flat_at_zero():
         assert ax.get_yscale() == "log"
         lo, hi = ax.get_ylim()
         assert lo <= min(best) and hi >= 0.9                # every generation in view
-        assert "log" in ax.get_ylabel()
+        assert "log" in ax.get_ylabel()  # the axis says it
     finally:
         plt.close(fig)
 

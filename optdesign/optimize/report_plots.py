@@ -89,12 +89,12 @@ def convergence_figure(cfg: Config, hist: list[dict]):
     elif len(pos):
         # 0 on a linear band one decade below the smallest value that is not round-off
         ax.set_yscale("symlog", linthresh=float(np.min(np.abs(pos))) / 10, linscale=0.5)
-        scale = "log scale above the smallest f"
+        scale = "symlog"
     if zero:
         title += f"\n(|f| < {ROUND_OFF:g} shown as 0: round-off)"
     ax.set_xlabel("generation")
     ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
-    ax.set_ylabel(f"weighted-sum objective f [–], {scale}")
+    ax.set_ylabel(f"weighted sum f [–], {scale}")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, which="both")
     ax.legend()
