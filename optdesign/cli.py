@@ -18,8 +18,8 @@ from .commands._common import UsageError  # owned by the commands; optdesign.cli
 from .config import ConfigError
 
 #: order in which commands are listed in --help
-_ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare", "export",
-          "bench", "validate-config", "validate-dynamics"]
+_ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
+          "export", "status", "bench", "validate-config", "validate-dynamics"]
 
 
 class _Parser(argparse.ArgumentParser):

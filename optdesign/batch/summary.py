@@ -283,22 +283,38 @@ ROUND_OFF = 1e-12
 
 
 def _quantity_labels(rows: Sequence[dict], qs: Sequence[str]) -> dict[str, str]:
-    """Each quantity with its unit, from the config of the first run folder
-    that can be read (the name alone where none can)."""
+    """Each quantity with its unit, from the configs of the run folders (one
+    folder read per resolved config; the name alone where none can be read).
+    Runs of different mechanisms may give one index name different units (a
+    stiffness in N/m for translations, N m/rad for rotations): the label then
+    names each unit with its configs instead of one unit for all."""
+    from ..units import index_unit, label
+
     out = {q: q for q in qs}
     out["objective"] = "objective f [–]"
+    units: dict[str, dict[str, list[str]]] = {q: {} for q in qs}    # quantity -> unit -> configs
+    seen = set()
     for r in rows:
+        key = (r.get("config"), r.get("config_key"))
+        if key in seen:
+            continue
         try:
             from ..optimize.runner import config_of_folder
-            from ..units import index_label
 
             cfg = config_of_folder(r["folder"])
         except Exception:  # noqa: BLE001 - a folder that cannot be read: the next one
             continue
+        seen.add(key)
         for q in qs:
             if q in cfg.indices:
-                out[q] = index_label(cfg, q)
-        break
+                names = units[q].setdefault(index_unit(cfg, q) or "", [])
+                if str(r.get("config")) not in names:
+                    names.append(str(r.get("config")))
+    for q, by in units.items():
+        if len(by) == 1:
+            out[q] = label(q, next(iter(by)) or None)
+        elif len(by) > 1:
+            out[q] = f"{q} [" + "; ".join(f"{u or '?'}: {', '.join(c)}" for u, c in by.items()) + "]"
     return out
 
 

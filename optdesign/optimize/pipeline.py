@@ -242,6 +242,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     notice = set_compile_notice(progress.compiling if progress.enabled else None)
     wall_before = float(folder.verify_inputs(seed)["wall_time_s"])   # the folder is what it says it is
     folder.update_manifest(status="running")
+    progress.watch(folder.path)      # progress.json: optdesign status RUN
+    ended = "failed"
     own, stop, pool = stop is None, stop or StopRequest(), None
     if own:
         stop.install()
@@ -291,7 +293,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             if cfg.optimizer.polish > 0:
                 ad_available(evaluator)     # builds the CasADi derivatives once per process
 
-        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.enabled)
+        pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.tracking)
         progress.poll = pool.poll_progress
         report_warm = False
         while todo or pool.running:
@@ -339,6 +341,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         folder.complete(wall_time_s=wall, evaluations=evals)
         progress.phase("writing report: report.html ...", "writing report.html …")
         _html_report(folder)
+        ended = "complete"
         return PipelineResult(folder, results, stages, wall_before_s=wall_before)
     except KeyboardInterrupt as exc:
         if not isinstance(exc, Interrupted):
@@ -350,6 +353,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         folder.record_checkpoints([st.name for st in plan] if waited else [], status="interrupted",
                                   wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         exc.folder = folder.path
+        ended = "interrupted"
         raise exc from None
     except Exception as exc:
         if pool is not None:
@@ -358,6 +362,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
                                wall_time_s=round(wall_before + time.perf_counter() - t0, 3))
         raise
     finally:
+        progress.end(ended)
         progress.close()
         set_compile_notice(notice)
         if pool is not None:

@@ -13,6 +13,9 @@ far, from the pre-scan's first batch on; the percentage counts the stages a
 resumed run finished before.  After the stages, the final phases (results,
 report) are lines of their own, and the run line names the phase instead of
 an ETA.  Lines are cut at field boundaries, never inside a number or word.
+
+:meth:`Progress.watch` also keeps the same state in the run folder's
+progress.json (:mod:`.watch`), terminal or not: ``optdesign status RUN``.
 """
 from __future__ import annotations
 
@@ -20,94 +23,12 @@ import sys
 import threading
 import time
 
+from .lines import _clock, _cut_words, _isatty, fit_line, stage_line, wrap_line  # noqa: F401
+
 __all__ = ["Progress", "RemoteProgress", "CountProgress", "stage_line", "fit_line", "wrap_line", "COMPILE_NOTICE"]
 
 #: said before kernels compile (the first run on a machine)
 COMPILE_NOTICE = "compiling kernels (once per machine, about 15-30 s; later runs load them from the cache)"
-
-
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
-
-
-def _clock(s: float) -> str:
-    s = max(0, int(round(s)))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
-
-
-def _cut_words(text: str, width: int) -> str:
-    """``text`` within ``width`` characters, cut at a word boundary (a space
-    or '_') with …, never inside a word or a number."""
-    if len(text) <= width:
-        return text
-    if width <= 1:
-        return "…"[:max(0, width)]
-    head = text[: width - 1]
-    cut = max(head.rfind(" "), head.rfind("_"))
-    if cut <= 0:
-        return "…"
-    return head[:cut].rstrip(" _/") + "…"
-
-
-def fit_line(parts: list[str], width: int, shrink: int | None = 0, drop=None, drop_first=()) -> str:
-    """Join ``parts`` (fields) with spaces within ``width`` characters, never
-    cutting inside a field's number or word: the part at index ``shrink`` (a
-    label; None: none) is shortened first, at a word boundary (with …); then whole parts
-    are left out, in the order ``drop`` (indices; default: from the last one
-    back to the second); at last the first part is cut at a word boundary.
-    ``drop_first``: parts left out before the label is shortened."""
-    parts = [p or "" for p in parts]
-
-    def joined(ps):
-        return " ".join(p for p in ps if p)
-
-    line = joined(parts)
-    for i in drop_first:
-        if len(line) <= width:
-            return line
-        parts[i] = ""
-        line = joined(parts)
-    if len(line) <= width:
-        return line
-    if shrink is not None and parts[shrink]:
-        over = len(line) - width
-        parts[shrink] = _cut_words(parts[shrink], max(1, len(parts[shrink]) - over))
-        if parts[shrink] == "…":
-            parts[shrink] = ""
-        line = joined(parts)
-    order = list(drop) if drop is not None else list(range(len(parts) - 1, 0, -1))
-    for i in order:
-        if len(line) <= width:
-            break
-        parts[i] = ""
-        line = joined(parts)
-    return line if len(line) <= width else _cut_words(line, width)
-
-
-def wrap_line(text: str, width: int) -> list[str]:
-    """A line of its own folded to ``width`` at spaces (a word longer than the
-    width is cut at a word boundary), continuation lines indented."""
-    import textwrap
-
-    lines = textwrap.wrap(text, max(8, width), subsequent_indent="  ", break_long_words=False,
-                          break_on_hyphens=False) or [""]
-    return [ln if len(ln) <= width else _cut_words(ln, width) for ln in lines]
-
-
-def stage_line(label: str, gen: int, total: int, best: str, elapsed: float, width: int) -> str:
-    """``label [####....] gen/total best 0:12`` within ``width`` characters (the
-    bar shrinks, then it is left out, then the label is shortened at a word
-    boundary; then the clock and the best value are left out whole)."""
-    tail = f"{gen}/{total}"
-    rest = [label, "", tail, best, _clock(elapsed)]
-    room = width - len(" ".join(p for p in rest if p)) - 3
-    bar_w = max(4, min(24, room))
-    k = int(bar_w * gen / max(total, 1))
-    rest[1] = f"[{'#' * k}{'.' * (bar_w - k)}]"
-    return fit_line(rest, width, drop=[4, 3, 2], drop_first=[1])
 
 
 class _Stage:
@@ -137,6 +58,30 @@ class Progress:
         self._describe = None
         self._pre_done: set[str] = set()
         self._phase = ""            # the run's final phase (results, report), shown instead of the ETA
+        self._status = None         # progress.json (:meth:`watch`)
+        self._finished: list[dict] = []
+
+    @property
+    def tracking(self) -> bool:
+        """Whether the stages' progress is wanted (a terminal, or progress.json)."""
+        return self.enabled or self._status is not None
+
+    def watch(self, folder) -> None:
+        """Keep the run's progress in ``folder``/progress.json (at most once a second)."""
+        from .watch import StatusFile
+
+        self._finished = []
+        self._status = StatusFile(folder, self.snapshot)
+
+    def _poke(self) -> None:
+        # never called with self._lock held (the status file's lock comes first)
+        if self._status is not None:
+            self._status.poke()
+
+    def end(self, status: str) -> None:
+        """The run ended (complete, interrupted, failed): progress.json says so."""
+        if self._status is not None:
+            self._status.end(status)
 
     # ------------------------------------------------------------------ display
     def _width(self) -> int:
@@ -180,7 +125,8 @@ class Progress:
                 done += pos_work[1] * (s.gen - s.first) / max(s.total, 1)
         return done
 
-    def _run_line(self, w: int) -> str:
+    def _totals(self) -> dict:
+        """The whole run: stages done, percentage of the work, elapsed, ETA (seconds or None)."""
         el = time.perf_counter() - self._t0
         work = {n: wk for n, (_, wk) in self._plan.items()}
         total = sum(work.values())
@@ -189,17 +135,40 @@ class Progress:
         running = sum(work[n] * min(s.gen, s.total) / max(s.total, 1) for n, s in self._stages.items() if n in work)
         done_all = before + finished + running
         here = self._progress_work()        # the work this process has seen done: its rate
+        eta = el * max(total - done_all, 0.0) / here if here > 0 and el > 1.0 else None
+        return {"stages_done": len((self._done | self._pre_done) & set(work)), "stages_total": len(self._plan),
+                "percent": round(100 * min(done_all / total, 1.0), 1) if total > 0 else None,
+                "elapsed_s": round(el, 1), "eta_s": None if eta is None else round(eta, 1),
+                "left": total > done_all}
+
+    def _run_line(self, w: int) -> str:
+        t = self._totals()
         eta = ""
         if self._phase:
             eta = self._phase
-        elif here > 0 and el > 1.0:
-            eta = f"ETA {_clock(el * max(total - done_all, 0.0) / here)}"
-        elif total > done_all:
+        elif t["eta_s"] is not None:
+            eta = f"ETA {_clock(t['eta_s'])}"
+        elif t["left"]:
             eta = "ETA …"
-        n_done = len((self._done | self._pre_done) & set(work))
-        pct = f"{100 * min(done_all / total, 1.0):.0f}%" if total > 0 else ""
-        return fit_line([f"run: {n_done}/{len(self._plan)} stages done", pct, f"{_clock(el)} elapsed", eta], w,
-                        shrink=None, drop=[2, 1])
+        pct = f"{t['percent']:.0f}%" if t["percent"] is not None else ""
+        return fit_line([f"run: {t['stages_done']}/{t['stages_total']} stages done", pct,
+                         f"{_clock(t['elapsed_s'])} elapsed", eta], w, shrink=None, drop=[2, 1])
+
+    def snapshot(self) -> dict:
+        """The run's progress as progress.json holds it (see :mod:`.watch`)."""
+        with self._lock:
+            self._drain()
+            t = self._totals()
+            t.pop("left")
+            running = [{"stage": n, "label": self._label(n), "position": self._plan.get(n, (None,))[0],
+                        "generation": s.gen, "generations": s.total, "best": s.best, "where": s.where}
+                       for n, s in self._stages.items()]
+            first = running[0] if running else {}
+            return {"status": "running", "phase": self._phase or ("stages" if self._plan else "starting"),
+                    **t, "eta": None if t["eta_s"] is None else _clock(t["eta_s"]),
+                    "stage": first.get("stage"), "generation": first.get("generation"),
+                    "generations": first.get("generations"), "best": first.get("best"),
+                    "running": running, "finished": list(self._finished)}
 
     def _print(self, text: str) -> None:
         if self._ensure():
@@ -227,6 +196,7 @@ class Progress:
             self._pre_done = set(done)
             self._t0 = time.perf_counter()
         self._ensure()
+        self._poke()
 
     def compiling(self, what: str = "") -> None:
         """The notice before kernels compile (the first run on a machine)."""
@@ -239,6 +209,7 @@ class Progress:
         with self._lock:
             self._phase = short or text
         self._print(text)
+        self._poke()
 
     def note(self, text: str) -> None:
         """A line of its own (e.g. a stage a worker process finished)."""
@@ -254,8 +225,10 @@ class Progress:
                 self._work_done += self._plan[name][1] * ((s.total - s.first) / max(s.total, 1) if s else 1.0)
             el = f" in {_clock(time.perf_counter() - s.t0)}" if s else ""
             best = summary or (s.best if s else "")
+            self._finished.append({"stage": name, "label": self._label(name), "result": best})
         where = " (worker)" if s is not None and s.where == "worker" else ""
         self._print(f"done {self._label(name)}{where}" + (f": {best}" if best else "") + el)
+        self._poke()
 
     # ------------------------------------------------------------------ a stage in this process
     def start(self, label: str, total: int, done: int = 0, describe=None):
@@ -266,19 +239,22 @@ class Progress:
             self._describe = describe
             self._stages[label] = _Stage(label, total, done, "here")
         self._ensure()
+        self._poke()
 
     def update(self, gen: int, best=None):
-        if not self.enabled or self._local is None:
+        if not self.tracking or self._local is None:
             return
         with self._lock:
             s = self._stages.get(self._local)
             if s is not None:
                 s.gen = gen
                 s.best = _best_text(best, self._describe)
+        self._poke()
 
     def waiting(self, names, since: float):
         """This process waits for stages in worker processes (the display redraws itself)."""
         self._ensure()
+        self._poke()
 
     def finish(self):
         """The stage of this process ended (finished or interrupted)."""

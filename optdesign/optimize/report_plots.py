@@ -11,7 +11,10 @@ import numpy as np
 from ..config import Config
 from ..runs import RunFolder
 
-__all__ = ["plots"]
+__all__ = ["plots", "convergence_figure", "pareto_figure", "ROUND_OFF"]
+
+#: a weighted sum this close to 0 is 0 (round-off of the normalization)
+ROUND_OFF = 1e-12
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -45,27 +48,68 @@ def plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import matplotlib.ticker  # noqa: F401
 
-    hist = _read_csv(folder.path / "stages" / "weighted_sum" / "history.csv")
-    if hist:
-        g = [int(r["generation"]) for r in hist]
-        best = [float(r["best_objective"]) for r in hist]
-        mean = [float(r["mean_objective"]) for r in hist]
-        fig, ax = plt.subplots(figsize=(6.4, 4), layout="constrained")
-        ax.plot(g, best, label="best")
-        ax.plot(g, mean, label="population mean", alpha=0.7)
-        ax.set_xlabel("generation")
-        ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
-        ax.set_ylabel("weighted-sum objective f [–]")
-        ax.set_title(f"{cfg.name}: convergence of the weighted sum (minimized)", fontsize=10)
-        ax.grid(alpha=0.3)
-        ax.legend()
+    fig = convergence_figure(cfg, _read_csv(folder.path / "stages" / "weighted_sum" / "history.csv"))
+    if fig is not None:
         _save(fig, folder.path / "convergence.png")
         plt.close(fig)
+    fig = pareto_figure(cfg, results, stages)
+    if fig is not None:
+        _save(fig, folder.path / "pareto.png")
+        plt.close(fig)
+
+
+def convergence_figure(cfg: Config, hist: list[dict]):
+    """The weighted sum f per generation (best and population mean) on a
+    logarithmic axis: f falls by decades towards its best, 0, and a linear
+    axis shows all but the first generations flat at 0.  Values within
+    round-off of 0 are 0, drawn on the linear band of a symlog axis (said in
+    the title); None without a history."""
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+
+    if not hist:
+        return None
+    g = [int(r["generation"]) for r in hist]
+    best = np.array([float(r["best_objective"]) for r in hist])
+    mean = np.array([float(r["mean_objective"]) for r in hist])
+    vals = np.concatenate([best, mean])
+    vals = vals[np.isfinite(vals)]
+    zero = bool(np.any(np.abs(vals) < ROUND_OFF))
+    best, mean = (np.where(np.abs(v) < ROUND_OFF, 0.0, v) for v in (best, mean))
+    fig, ax = plt.subplots(figsize=(6.4, 4), layout="constrained")
+    ax.plot(g, best, label="best", marker="o", ms=3, clip_on=False)
+    ax.plot(g, mean, label="population mean", alpha=0.7, marker="o", ms=3, clip_on=False)
+    pos = vals[np.abs(vals) >= ROUND_OFF]
+    title = f"{cfg.name}: convergence of the weighted sum (minimized)"
+    scale = "linear"
+    if len(pos) and np.all(vals > 0):
+        ax.set_yscale("log")
+        scale = "log scale"
+    elif len(pos):
+        # 0 on a linear band one decade below the smallest value that is not round-off
+        ax.set_yscale("symlog", linthresh=float(np.min(np.abs(pos))) / 10, linscale=0.5)
+        scale = "symlog"
+    if zero:
+        title += f"\n(|f| < {ROUND_OFF:g} shown as 0: round-off)"
+    ax.set_xlabel("generation")
+    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    ax.set_ylabel(f"weighted sum f [–], {scale}")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    return fig
+
+
+def pareto_figure(cfg: Config, results: dict, stages: dict):
+    """The Pareto fronts, each pair of objectives in its own sense (None
+    without a front).  Markers are never cut at the frame (clip_on=False)."""
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+
     fronts = {k: v for k, v in stages.items() if v.get("kind") == "pareto" and v.get("front")}
     if not fronts:
-        return
+        return None
     any_front = next(iter(fronts.values()))
     terms = any_front["terms"]
     pairs = [(i, j) for i in range(len(terms)) for j in range(i + 1, len(terms))]
@@ -94,10 +138,10 @@ def plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
             label = f"{name} ({len(F)} design{'s' if len(F) != 1 else ''})"
             if len(F) == 1:   # a front of one design: a large ring (one size per front), seen around other marks
                 ax.scatter(F[:, i], F[:, j], s=260 + 160 * n_front, facecolors="none", linewidths=2.2,
-                           edgecolors=f"C{n_front}", label=label, zorder=6)
+                           edgecolors=f"C{n_front}", label=label, zorder=6, clip_on=False)
             else:
                 ax.scatter(F[:, i], F[:, j], s=14, alpha=0.6, color=f"C{n_front}", edgecolors="none", label=label,
-                           zorder=4)
+                           zorder=4, clip_on=False)
         # the view: the fronts and the weighted-sum optimum; a named design far away is drawn at the edge
         core = np.vstack([*own.values()] + ([points["weighted_sum_optimum"][None, :]] if "weighted_sum_optimum" in points else []))
         lims = []
@@ -137,8 +181,7 @@ def plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
     if one:
         title += f"\n{', '.join(one)}: the front collapsed to ONE design (no trade-off found)"
     fig.suptitle(title, fontsize=10)
-    _save(fig, folder.path / "pareto.png")
-    plt.close(fig)
+    return fig
 
 
 def _save(fig, path: Path) -> None:

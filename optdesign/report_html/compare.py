@@ -21,6 +21,23 @@ from ..units import DIMENSIONLESS, index_label, index_unit, objective_unit, vari
 __all__ = ["build_compare", "write_compare_html"]
 
 
+#: the height of one legend entry (one line of 11 px text) in the legends under the plots
+LEGEND_ROW = 20
+
+
+def legend_below(fig: go.Figure, axis_room: int) -> go.Figure:
+    """The legend under the plot, one entry per line: entries side by side
+    overlap one another and are clipped at the figure's edge once run names
+    are long.  The bottom margin (``axis_room``: the axes' titles) and the
+    height grow by the legend's height, so the plot keeps its size."""
+    n = sum(1 for d in fig.data if d.showlegend is not False)
+    room = LEGEND_ROW * n + 12
+    fig.update_layout(legend=dict(orientation="v", yref="container", y=0, yanchor="bottom", x=0, xanchor="left",
+                                  font=dict(size=11), tracegroupgap=0),
+                      margin=dict(b=axis_room + room), height=int(fig.layout.height or 450) + room)
+    return fig
+
+
 def _labels(runs: list[RunData]) -> list[str]:
     return [f"{i + 1}: {r.path.name}" for i, r in enumerate(runs)]
 
@@ -117,13 +134,11 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
                                                line=dict(width=1, color="white"))))
     n = len(common)
     style_matrix(fig, dims)
-    rows = -(-len(fig.data) // 3)
-    fig.update_layout(template=TEMPLATE, height=max(440, 230 * (n - 1) + 160) + 22 * rows,
+    fig.update_layout(template=TEMPLATE, height=max(440, 230 * (n - 1) + 160),
                       dragmode="select", hovermode="closest",
                       title=dict(text="Pareto fronts of the runs overlaid (objectives in their own sense)", x=0.01),
-                      legend=dict(orientation="h", yref="container", y=0.005, yanchor="bottom", x=0, xanchor="left",
-                                  entrywidth=0.33, entrywidthmode="fraction"),
-                      margin=dict(t=70, l=90, b=80 + 22 * rows))
+                      margin=dict(t=70, l=90))
+    legend_below(fig, 80)
     singles = [f"{lab} · {f.name}" for lab, _, f in fronts if f.size == 1]
     note = ""
     if singles:
@@ -146,10 +161,15 @@ def _convergence_figure(runs, labels) -> go.Figure | None:
     fig.update_layout(template=TEMPLATE, height=420,
                       title=dict(text="Weighted-sum stage: best f per generation (each run scaled by its own "
                                       "normalization)", x=0.01),
-                      legend=dict(orientation="h", y=1.0, yanchor="bottom", x=0, xanchor="left"),
-                      margin=dict(t=100))
+                      margin=dict(t=80))
+    legend_below(fig, 60)
     fig.update_xaxes(title_text="generation")
-    fig.update_yaxes(title_text="f [–]")
+    ys = np.concatenate([np.asarray(d.y, float) for d in fig.data])
+    ys = ys[np.isfinite(ys)]
+    if len(ys) and np.all(ys > 0):   # f falls by decades towards 0: a linear axis shows it flat at 0
+        fig.update_yaxes(title_text="f [–], log scale", type="log")
+    else:
+        fig.update_yaxes(title_text="f [–]")
     return fig
 
 

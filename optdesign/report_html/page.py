@@ -9,7 +9,10 @@ import plotly.io as pio
 
 from .figures import esc
 
-__all__ = ["Page", "PLOTLY_CONFIG"]
+__all__ = ["Page", "PLOTLY_CONFIG", "MODEBAR_PX", "clear_of_modebar"]
+
+#: the strip at the top of a figure that plotly's toolbar (modebar) takes
+MODEBAR_PX = 34
 
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True,
                  "toImageButtonOptions": {"format": "png", "scale": 2}}
@@ -101,8 +104,10 @@ class Page:
         self.parts.append(s)
 
     def figure(self, fig, cls: str = "fig") -> str:
-        """The div of a figure (plotly.js itself is in the head, once)."""
+        """The div of a figure (plotly.js itself is in the head, once), its
+        title below the toolbar's strip (:func:`clear_of_modebar`)."""
         self.figures += 1
+        clear_of_modebar(fig)
         div = pio.to_html(fig, full_html=False, include_plotlyjs=False, include_mathjax=False, config=PLOTLY_CONFIG,
                           div_id=f"fig{next(self._ids)}", default_width="100%",
                           default_height=f"{int(fig.layout.height or 450)}px", validate=False,
@@ -135,6 +140,22 @@ class Page:
             f"<script>{_ERRORS_TAIL}</script>",
             "</body></html>",
         ])
+
+
+def clear_of_modebar(fig):
+    """A titled figure's title anchored at the figure's top, ``MODEBAR_PX``
+    below it: the toolbar (top right, shown on hover) no longer covers it.
+    The top margin and the height grow by as much (the plot keeps its size)."""
+    t = fig.layout.title
+    if not t.text or (t.yref == "container" and t.pad.t == MODEBAR_PX):   # none, or done
+        return fig
+    top = fig.layout.margin.t
+    if top is None:
+        tm = fig.layout.template.layout.margin if fig.layout.template is not None else None
+        top = tm.t if tm is not None and tm.t is not None else 80
+    fig.update_layout(title=dict(yref="container", y=1.0, yanchor="top", pad=dict(t=MODEBAR_PX)),
+                      margin=dict(t=int(top) + MODEBAR_PX), height=int(fig.layout.height or 450) + MODEBAR_PX)
+    return fig
 
 
 def plotly_js_version() -> str:
