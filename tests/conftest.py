@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import kernel_warmup
 import pytest
 import yaml
 
@@ -99,17 +98,3 @@ def small_batches(tmp_path_factory):
     rows1 = run_batch(tasks, str(root / "jobs1"), jobs=1)
     rows2 = run_batch(tasks, str(root / "jobs2"), jobs=2)
     return tasks, root, rows1, rows2
-
-
-def pytest_collection_modifyitems(session, config, items):
-    """The tests whose cost is kernel compilation go last, their kernels
-    compiled meanwhile in the background (tests/kernel_warmup.py)."""
-    last = [i for i in items if i.path.name in kernel_warmup.FILES]
-    rest = [i for i in items if i.path.name not in kernel_warmup.FILES]
-    if last and kernel_warmup.wanted(len(rest)):
-        items[:] = rest + last
-        kernel_warmup.start(sorted({str(i.path) for i in last}))
-
-
-def pytest_sessionfinish(session, exitstatus):
-    kernel_warmup.stop()

@@ -26,6 +26,7 @@ def _stage_files(folder: Path) -> dict[str, str]:
             for p in sorted(folder.glob("stages/*/*.csv"))}
 
 
+@pytest.mark.slow
 def test_same_seed_same_result_whatever_jobs(small_batches):
     tasks, root, rows1, rows2 = small_batches
     assert [r["seed"] for r in rows1] == [1, 2]

@@ -149,6 +149,7 @@ def test_the_old_maximum_design_is_refuted_in_the_described_3p4s_too():
     assert cond_fro(hand.jacobian(X))[0] > 1000.0
 
 
+@pytest.mark.slow
 def test_a_run_certifies_every_reported_design(tmp_path):
     """results.json["certificates"]: the optimum, both extremes of each index,
     the named designs and every Pareto point; certified designs hold on a

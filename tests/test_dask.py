@@ -93,6 +93,7 @@ def _running_with_checkpoint(out: Path) -> list[Path]:
     return busy
 
 
+@pytest.mark.slow
 def test_dask_batch_survives_a_killed_worker(cluster, tmp_path, edited_copy):
     address, procs = cluster
     # a little longer than the other tests' runs, so that a worker is caught mid-run
@@ -214,6 +215,7 @@ def test_a_listener_that_is_not_a_scheduler(tmp_path, mode):
     assert not (tmp_path / "runs").exists()
 
 
+@pytest.mark.slow
 def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
     """SIGTERM to a batch running on Dask: exit 143, one line, the client closed
     and no process left in the batch's group."""

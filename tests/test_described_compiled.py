@@ -75,6 +75,7 @@ def _random_designs(cfg, rng, D):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,spread", [("p4s_legs.yaml", None), ("gough_stewart.yaml", 0.1), ("delta.yaml", 0.1),
                                          ("sps_s_legs.yaml", 0.2)])
 def test_configs_all_index_kinds(name, spread):

@@ -36,6 +36,7 @@ def _results(folder: Path):
     return res, pop
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["gough_stewart_opt.yaml", "delta_opt.yaml"])
 def test_run_finishes_and_is_reproducible(tmp_path, name):
     f = _tiny(tmp_path, name)

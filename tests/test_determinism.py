@@ -85,6 +85,7 @@ def _run(tmp: Path, name: str, threads: int, interval: str, jobs: int) -> Path:
     return folder
 
 
+@pytest.mark.slow
 def test_the_same_seed_gives_the_same_files(tmp_path):
     a = _run(tmp_path, "a", 1, "0", 1)
     b = _run(tmp_path, "b", 2, "1000000", 2)

@@ -232,6 +232,7 @@ def small_run(tmp_path_factory):
     return json.loads(out), err, opened, elapsed
 
 
+@pytest.mark.slow
 def test_run_json_names_the_report_and_the_whole_wall_time(small_run):
     res, err, opened, elapsed = small_run
     folder = Path(res["folder"])
@@ -257,6 +258,7 @@ def test_nsga3_count_during_the_run_is_the_reported_front(small_run):
         assert int(rows[-1]["front_size"]) == res["pareto"][alg]["front_size"], alg
 
 
+@pytest.mark.slow
 def test_run_prints_the_report_paths_and_open_without_a_browser(tmp_path, monkeypatch):
     import webbrowser
 

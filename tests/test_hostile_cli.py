@@ -56,6 +56,7 @@ def command_lines(draw):
     return argv
 
 
+@pytest.mark.slow
 def test_random_command_lines():
     cases = Cases()
     status = {0: 0, 1: 0, 2: 0}
@@ -140,6 +141,7 @@ def test_did_you_mean_in_configs(old, new, words, edited_copy):
         assert words in err, err
 
 
+@pytest.mark.slow
 def test_names_that_are_not_utf8_on_a_strict_terminal(tmp_path):
     """A file name with a byte that is not UTF-8 (a lone surrogate in Python),
     printed back to a terminal whose encoding is strict: escaped, no traceback."""

@@ -184,6 +184,7 @@ def _check_failure(rc, err, file_name, expect, what, tmp: Path):
     assert left == [file_name], f"{what}: wrote {left}"
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=broken_configs(), command=st.sampled_from(COMMANDS))
 def test_broken_config_gives_one_line_and_status_2(case, command):

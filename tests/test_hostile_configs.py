@@ -6,6 +6,8 @@ changes (which must be read exactly: no silent wrong result).  The
 p4s-specific catalogue of exact messages is tests/test_hostile_config.py."""
 from __future__ import annotations
 
+import pytest
+
 import math
 
 import yaml
@@ -116,6 +118,7 @@ def mutations(draw):
     return name, data, f"{_key(path)} = {str(value)[:60]!r}", kind, path, value
 
 
+@pytest.mark.slow
 def test_mutated_shipped_configs():
     cases = Cases()
     counts = {"refused": 0, "accepted": 0}

@@ -229,6 +229,7 @@ def test_commands_at_the_edge_of_reachability(tmp_path, write_yaml):
     assert rc in (0, 1) and err == ""
 
 
+@pytest.mark.slow
 def test_no_nan_reaches_the_optimum(tmp_path):
     """A small optimization over bounds full of unreachable and singular
     designs (rails from 1 to 89 deg, base radius from 0.2 to 1.2 m): the

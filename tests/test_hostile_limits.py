@@ -75,6 +75,7 @@ def _count(ws: dict, scale: float) -> int:
     return total
 
 
+@pytest.mark.slow
 def test_one_limit_on_workspace_points():
     cases = Cases()
 

@@ -67,6 +67,7 @@ def _config(name_slot: str, name: str) -> dict:
     return data
 
 
+@pytest.mark.slow
 def test_names_through_the_commands():
     """Every slot where a name becomes a path: invalid names give exit 2 naming
     the key (or the option), valid ones write only inside the chosen root."""

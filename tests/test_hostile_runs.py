@@ -156,6 +156,7 @@ CHANGES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("label", list(CHANGES))
 def test_a_changed_folder_is_refused_naming_the_file(runs, tmp_path, label):
     change, named = CHANGES[label]
@@ -169,6 +170,7 @@ def test_a_changed_folder_is_refused_naming_the_file(runs, tmp_path, label):
     assert str(f / named).rstrip("/") in err, (label, err)
 
 
+@pytest.mark.slow
 def test_an_intact_copy_resumes_to_the_uninterrupted_result(runs, tmp_path):
     f = _copy(runs["base"], tmp_path / "run")
     rc, err = _resume(f)
@@ -212,6 +214,7 @@ def _object_npz(marker: Path) -> bytes:
     return buf.getvalue()
 
 
+@pytest.mark.slow
 def test_planted_code_never_runs(runs, tmp_path):
     marker = tmp_path / "payload-ran"
     payload = pickle.dumps(_Payload(marker))

@@ -25,6 +25,7 @@ def _group_alive(pgid: int) -> bool:
     return True
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, to_group, status", [(signal.SIGTERM, False, 143), (signal.SIGINT, True, 130)],
                          ids=["SIGTERM to the batch", "SIGINT to its group"])
 def test_signal_stops_the_batch_and_its_workers(tmp_path, sig, to_group, status):

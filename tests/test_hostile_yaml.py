@@ -52,6 +52,7 @@ def _same(a, b) -> bool:
     return a == b
 
 
+@pytest.mark.slow
 def test_round_trip_of_plain_data():
     """What the package writes (a batch's resolved configs) reads back to the
     same values, both by our YAML 1.2 reader and by PyYAML's YAML 1.1 one:
@@ -93,6 +94,7 @@ def _duplicate(text: str, choice: int, flow: bool) -> tuple[str, str] | None:
     return "".join(lines), m.group(2)
 
 
+@pytest.mark.slow
 def test_duplicate_keys_are_refused_at_every_level():
     cases = Cases()
 
@@ -135,6 +137,7 @@ _LEAVES = ["description", "parameters.m_platform", "design_variables.r_a.bounds"
            "workspace.step", "indices.dynamic.options", "optimizer.population", "reference.before.dynamic", "name"]
 
 
+@pytest.mark.slow
 def test_alias_bombs_are_refused_quickly():
     """Bombs of 2 to 12 levels of 2 to 12 aliases, in a config leaf or as a
     batch file's sweep values: refused (one short line) within seconds; the

@@ -11,6 +11,7 @@ from optdesign.mechanisms import available
 from cli_helpers import run_cli_in
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mech", available())
 def test_init_config_validates_and_runs(tmp_path, mech):
     rc, out, err = run_cli_in(tmp_path, ["init", mech, "c.yaml"])

@@ -135,6 +135,7 @@ EXPECTED_STATUS = {signal.SIGINT: (130, "interrupted"), signal.SIGTERM: (143, "i
                    signal.SIGKILL: (-9, "running")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=lambda s: s.name)
 def test_kill_at_a_random_generation_then_resume(tiny, reference, tmp_path, sig):
     first = int(RNG.integers(1, TOTAL_GENERATIONS - 2))
@@ -195,6 +196,7 @@ def _cmdline(pid: int) -> str:
         return ""
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
 @pytest.mark.parametrize("delay", [0.0, 0.15, 0.3])
 def test_sigkill_while_the_stage_worker_starts_leaves_no_process(tiny, tmp_path, delay):
@@ -232,6 +234,7 @@ def _group(pgid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=lambda s: s.name)
 def test_a_signal_during_the_run_leaves_no_process_of_its_group(tiny, reference, tmp_path, sig):
@@ -266,6 +269,7 @@ def test_a_signal_during_the_run_leaves_no_process_of_its_group(tiny, reference,
     assert _comparable(resume_run(folder).results) == reference
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["run", "reproduce"])
 def test_a_signal_after_the_run_completed_gives_its_status(tiny, tmp_path, command):
     """SIGTERM or SIGINT as soon as the manifest says complete (and a few ms
@@ -295,6 +299,7 @@ def test_a_signal_after_the_run_completed_gives_its_status(tiny, tmp_path, comma
     assert alive >= 1, "every run had exited before its signal: nothing was tested"
 
 
+@pytest.mark.slow
 def test_many_folders_created_at_once(tmp_path):
     """Eight processes create a folder with the same name in the same second."""
     code = ("import sys, time; from optdesign.runs import RunFolder\n"

@@ -473,6 +473,7 @@ def test_evaluate_json_paper_config(capsys):
 
 
 # ----------------------------------------------------------------------------- dynamics example
+@pytest.mark.slow
 def test_dynamics_example_numbers(tmp_path):
     """docs/dynamics_example.py (the paper's section 2.4 example) runs and gives
     the numbers docs/reproduction.md quotes."""

@@ -63,6 +63,7 @@ def _reference(mech, X):
     return ref, reach, cond_2(J)
 
 
+@pytest.mark.slow
 def test_local_values_match_numpy():
     rng = np.random.default_rng(5)
     des = _designs(rng, 12)

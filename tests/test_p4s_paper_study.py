@@ -55,6 +55,7 @@ def test_the_grid_is_exhaustive_every_feasible_design_is_no_better(paper_facts):
         assert np.all(v >= best) if spec.sense == "min" else np.all(v <= best)
 
 
+@pytest.mark.slow
 def test_table3_note_says_fit_and_checks(paper_facts):
     cfg, f = paper_facts
     text = table3_note(cfg, f)

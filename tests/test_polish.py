@@ -59,6 +59,7 @@ def _grid_extremes(ev):
     return best
 
 
+@pytest.mark.slow
 def test_the_recorded_extremes_are_those_of_a_dense_grid_or_beyond(paper_run):
     cfg, res = paper_run
     ev = Evaluator.from_config(cfg)
@@ -121,6 +122,7 @@ def _small(text: str) -> str:
 SHIPPED = sorted(p for p in CONFIGS.glob("*.yaml") if p.name != "batch_example.yaml" and load_config(p).free_variables)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
 def test_no_normalized_objective_leaves_zero_one_over_seeds_1_to_5(path, tmp_path, monkeypatch):
     # the reports are not what is checked here (and take most of a small run's time)

@@ -46,6 +46,7 @@ def noref(tmp_path_factory):
     return folder, out, err
 
 
+@pytest.mark.slow
 def test_no_paper_wording_anywhere(noref):
     from test_report_html import _visible_text
 
@@ -117,6 +118,7 @@ def test_optimum_yaml_pastes_into_designs(noref, tmp_path):
     assert 25 <= exported["optimum"]["phi"] <= 35                  # degrees, as the config writes phi
 
 
+@pytest.mark.slow
 def test_run_json(tmp_path):
     _noref_config(tmp_path)
     rc, out, err = run_cli_in(tmp_path, ["run", "noref.yaml", "--out", "runs", "--jobs", "1", "--no-pareto", "--json"])
@@ -131,6 +133,7 @@ def test_run_json(tmp_path):
     assert Path(d["files"]["optimum.yaml"]).is_file()
 
 
+@pytest.mark.slow
 def test_batch_and_summarize_json(tmp_path):
     _noref_config(tmp_path)
     rc, out, err = run_cli_in(tmp_path, ["batch", "noref.yaml", "--seeds", "2", "--out", "b", "--jobs", "1", "--json"])
@@ -213,6 +216,7 @@ def _screen_lines(raw: str) -> list[str]:
     return [s for s in re.split(r"[\r\n]", plain) if s.strip()]
 
 
+@pytest.mark.slow
 def test_progress_never_wider_than_the_terminal(tmp_path):
     """A run with a worker process on a 60-column terminal: every line the
     progress draws fits, the run's line counts stages, every stage gets its
@@ -236,6 +240,7 @@ def test_progress_never_wider_than_the_terminal(tmp_path):
     assert "complete" in out and "phi = " in out           # the result itself goes to stdout
 
 
+@pytest.mark.slow
 def test_no_progress_when_not_a_terminal(tmp_path):
     (tmp_path / "small.yaml").write_text((DATA / "p4s_small.yaml").read_text())
     p = subprocess.run([sys.executable, "-m", "optdesign.cli", "run", "small.yaml", "--out", "runs", "--jobs", "1",
@@ -246,6 +251,7 @@ def test_no_progress_when_not_a_terminal(tmp_path):
     assert len(lines) == 3 and lines[1].startswith("report: ") and lines[2].startswith("results: ")
 
 
+@pytest.mark.slow
 def test_tables_fit_the_terminal(tmp_path):
     """evaluate's table on a 60-column terminal is folded; into a file it keeps its width."""
     rc, screen, out = _pty_run(["evaluate", str(ROOT / "configs" / "p4s_paper.yaml")], tmp_path, 60)

@@ -3,6 +3,8 @@ namespace, from a folder laid out like the repository root (its asserts are
 the page's checks)."""
 from __future__ import annotations
 
+import pytest
+
 import os
 import re
 import shutil
@@ -24,6 +26,7 @@ def test_the_page_has_code():
         assert name in code, name
 
 
+@pytest.mark.slow
 def test_python_api_page_runs(tmp_path, capsys):
     import optdesign
     import optdesign.evaluate  # noqa: F401 - imported before: `od.evaluate` must stay the function

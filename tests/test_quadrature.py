@@ -272,6 +272,7 @@ def paper_reference():
     return cfg, designs, out
 
 
+@pytest.mark.slow
 def test_reference_rule_is_converged(paper_reference):
     cfg, _, ref = paper_reference
     for k in cfg.indices:

@@ -126,6 +126,7 @@ def _visible_text(html: str) -> str:
 
 
 # --------------------------------------------------------------------------- content
+@pytest.mark.slow
 def test_self_contained_and_offline(noref_report):
     html = noref_report.read_text()
     js = _plotly_js()
@@ -349,6 +350,7 @@ def _chromium(args: list[str], profile: Path) -> subprocess.CompletedProcess:
     return subprocess.run([CHROMIUM] + flags + args, capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", ["four objectives", "two objectives"])
 def test_report_renders_in_headless_chromium(which, request, tmp_path):
     if CHROMIUM is None:

@@ -33,6 +33,7 @@ def _strip(results: dict) -> dict:
     return r
 
 
+@pytest.mark.slow
 def test_run_folder_is_complete(finished):
     p = finished.folder.path
     for f in ("config.yaml", "manifest.json", "results.json", "results.md", "history.csv", "population.csv",
@@ -68,6 +69,7 @@ def test_single_point_front_when_indices_agree(finished):
     assert pr["front_spread"] < 0.05
 
 
+@pytest.mark.slow
 def test_weighted_optimum_against_the_front(tmp_path):
     """The weighted-sum optimum is not dominated by any point of the NSGA-II
     front (indices + base radius, a real trade-off) by more than the front's own spread."""
@@ -98,6 +100,7 @@ def test_weighted_optimum_against_the_front(tmp_path):
     assert pl["epsilon"] == pytest.approx(np.min(np.max(Fn - p, axis=1)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stop_after", [3, 17, 50])
 def test_resume_equals_uninterrupted(finished, tmp_path, stop_after):
     cfg = load_config(SMALL)
@@ -112,6 +115,7 @@ def test_resume_equals_uninterrupted(finished, tmp_path, stop_after):
     assert _strip(res.results) == _strip(finished.results)
 
 
+@pytest.mark.slow
 def test_a_stop_saves_a_checkpoint_whatever_the_interval(finished, tmp_path):
     """With checkpoint_interval far longer than the run, no checkpoint is written
     on the way, but a stop still saves one, and the resumed run ends as the
@@ -128,6 +132,7 @@ def test_a_stop_saves_a_checkpoint_whatever_the_interval(finished, tmp_path):
     assert _strip(res.results) == _strip(finished.results)
 
 
+@pytest.mark.slow
 def test_resume_twice_interrupted(finished, tmp_path):
     cfg = load_config(SMALL)
     with pytest.raises(Interrupted):
@@ -139,6 +144,7 @@ def test_resume_twice_interrupted(finished, tmp_path):
     assert _strip(res.results) == _strip(finished.results)
 
 
+@pytest.mark.slow
 def test_resume_at_generations_of_every_stage_kind_is_byte_identical(tmp_path):
     """One folder of p4s_tiny.yaml (4 single-index stages and 2 weighted sums of
     4 generations, NSGA-II and NSGA-III of 3) stopped again and again: in a
@@ -165,6 +171,7 @@ def test_resume_at_generations_of_every_stage_kind_is_byte_identical(tmp_path):
         assert (folder / rel).read_bytes() == (whole.folder.path / rel).read_bytes(), rel
 
 
+@pytest.mark.slow
 def test_stages_in_two_processes_equal_one(finished, tmp_path):
     """jobs=2 runs stages in a worker process too: same results, a complete
     manifest (written by this process only), no stop file left behind."""
@@ -211,6 +218,7 @@ def _cli(*args, **kw):
     return subprocess.run([sys.executable, "-m", "optdesign.cli", *args], capture_output=True, text=True, **kw)
 
 
+@pytest.mark.slow
 def test_sigterm_leaves_an_incomplete_folder_that_resumes(tmp_path, finished):
     """A real process, a real SIGTERM, then ``optdesign run --resume``."""
     out = tmp_path / "runs"
@@ -237,6 +245,7 @@ def test_sigterm_leaves_an_incomplete_folder_that_resumes(tmp_path, finished):
     assert _strip(res) == _strip(json.loads(json.dumps(finished.results)))
 
 
+@pytest.mark.slow
 def test_run_command_errors_are_one_line(tmp_path):
     r = _cli("run", "--resume", str(tmp_path / "missing"))
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
@@ -244,6 +253,7 @@ def test_run_command_errors_are_one_line(tmp_path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
 
 
+@pytest.mark.slow
 def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
     """An index with weight 0 gets no single-objective runs and no term in the
     weighted sum, but is still an objective of the Pareto front."""

@@ -85,6 +85,7 @@ def _first_ga_stage(cfg):
     return next(s for s in stage_plan(cfg) if s.kind == "single")
 
 
+@pytest.mark.slow
 def test_a_busy_worker_stops_at_the_boundary_and_its_stage_resumes(tmp_path):
     cfg, text = _long(tmp_path, 400)
     ws = sample(cfg.workspace, ("x", "y", "z"))
@@ -133,6 +134,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
 def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
     cfg, text = _long(tmp_path, 100000)
@@ -172,6 +174,7 @@ def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
     assert 1 <= meta["history"]["rows"] == meta["n_iter"] - 1 < 100000
 
 
+@pytest.mark.slow
 def test_two_processes_give_every_file_of_one(tmp_path):
     one = start_run(load_config(TINY), seed=5, out=tmp_path / "one", jobs=1).folder.path
     two = start_run(load_config(TINY), seed=5, out=tmp_path / "two", jobs=2).folder.path
