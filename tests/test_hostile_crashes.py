@@ -49,3 +49,164 @@ def test_the_optimality_measure_survives_impossible_geometry_next_to_the_design(
     inside = ev.vector({"r_a": 0.25, "r_b": 0.67, "d": 0.12, "phi": np.radians(30)})
     o = optimality(DesignProblem(ev, [index_term("dynamic", "min")]), inside, ev.free)
     assert o["measurable"] is True and np.isfinite(o["kkt_relative"])
+
+
+# ---------------------------------------------------------------- report reads a run folder
+
+RUN = ROOT / "runs" / "p4s_paper-reproduction"
+
+
+def _one_line_error(rc: int, err: str, *fragments: str) -> None:
+    assert rc == 2, (rc, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("optdesign: error: "), err
+    for f in fragments:
+        assert f in lines[0], (f, lines[0])
+
+
+def _copy_run(tmp_path) -> Path:
+    import shutil
+
+    dst = tmp_path / "run"
+    shutil.copytree(RUN, dst, ignore=shutil.ignore_patterns("report.html", "run.lock"))
+    return dst
+
+
+def _link_to_copy(path: Path, elsewhere: Path) -> None:
+    """``path`` replaced by a symbolic link to a copy of itself elsewhere (same bytes, same hash)."""
+    import shutil
+
+    if path.is_dir():
+        shutil.move(str(path), str(elsewhere))
+    else:
+        elsewhere.write_bytes(path.read_bytes())
+        path.unlink()
+    path.symlink_to(elsewhere)
+
+
+@pytest.mark.parametrize("case", ["config.yaml to /etc/passwd", "history.csv to its own copy",
+                                  "result.json to its own copy", "stages/ to its own copy",
+                                  "a stage folder to its own copy", "results.json to its own copy",
+                                  "manifest.json to its own copy"])
+def test_report_never_reads_through_a_link_in_the_run_folder(tmp_path, case):
+    from cli_helpers import run_cli_in
+
+    run = _copy_run(tmp_path)
+    other = tmp_path / "elsewhere"
+    if case.startswith("config.yaml"):
+        (run / "config.yaml").unlink()
+        (run / "config.yaml").symlink_to("/etc/passwd")
+        where = "config.yaml"
+    else:
+        rel = {"history.csv": "stages/weighted_sum/history.csv", "result.json": "stages/weighted_sum/result.json",
+               "stages/": "stages", "a stage folder": "stages/prescan", "results.json": "results.json",
+               "manifest.json": "manifest.json"}[case.split(" to ")[0]]
+        _link_to_copy(run / rel, other)
+        where = rel
+    rc, out, err = run_cli_in(tmp_path, ["report", str(run), "--resolution", "3"])
+    _one_line_error(rc, err, where, "symbolic link")
+    assert not (run / "report.html").exists()
+
+
+@pytest.mark.parametrize("rel", ["stages/weighted_sum/history.csv", "stages/pareto_nsga2/result.json", "pareto_nsga3.csv"])
+def test_report_checks_the_recorded_hashes_before_use(tmp_path, rel):
+    from cli_helpers import run_cli_in
+
+    run = _copy_run(tmp_path)
+    with open(run / rel, "a") as fh:
+        fh.write("\n")
+    rc, out, err = run_cli_in(tmp_path, ["report", str(run), "--resolution", "3"])
+    _one_line_error(rc, err, rel, "SHA-256")
+    assert not (run / "report.html").exists()
+
+
+@pytest.mark.parametrize("case", ["empty stages/", "no stages/", "one stage folder gone"])
+def test_report_says_what_is_missing(tmp_path, case):
+    import shutil
+
+    from cli_helpers import run_cli_in
+
+    run = _copy_run(tmp_path)
+    if case == "one stage folder gone":
+        shutil.rmtree(run / "stages" / "weighted_sum")
+        want = "weighted_sum"
+    else:
+        shutil.rmtree(run / "stages")
+        if case == "empty stages/":
+            (run / "stages").mkdir()
+        want = "is empty" if case == "empty stages/" else "is missing"
+    rc, out, err = run_cli_in(tmp_path, ["report", str(run), "--resolution", "3"])
+    _one_line_error(rc, err, "stages", want)
+    assert not (run / "report.html").exists()
+
+
+def test_report_ignores_stage_files_the_manifest_does_not_record(tmp_path):
+    """A planted stage folder (not in the manifest) is never read: the run's own
+    files are enough, and the page does not name the stray stage."""
+    from optdesign.report_html.rundata import load_run
+
+    run = _copy_run(tmp_path)
+    (run / "stages" / "planted").mkdir()
+    (run / "stages" / "planted" / "result.json").symlink_to("/etc/passwd")
+    (run / "stages" / "weighted_sum" / "extra.csv").write_text("a,b\n1,2\n")
+    data = load_run(run)
+    assert "planted" not in data.stages and "weighted_sum" in data.history and data.fronts
+
+
+# ---------------------------------------------------------------- one run at a time in a folder
+
+def test_a_second_resume_of_a_locked_folder_is_refused_naming_the_holder(tmp_path):
+    """A process holds RUN/run.lock (as a run does for its whole life): run
+    --resume refuses at once with one line naming that process; once the
+    holder exits (even by SIGKILL) the resume goes on."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from cli_helpers import run_cli_in
+
+    run = _copy_run(tmp_path)
+    code = ("import sys; from optdesign.runs import RunFolder\n"
+            "lk = RunFolder(sys.argv[1]).lock(); print('locked', flush=True); sys.stdin.read()")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    holder = subprocess.Popen([sys.executable, "-c", code, str(run)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                              text=True, env=env, cwd=tmp_path)
+    try:
+        assert holder.stdout.readline().strip() == "locked"          # a condition, not a sleep
+        rc, out, err = run_cli_in(tmp_path, ["run", "--resume", str(run), "--quiet"])
+        _one_line_error(rc, err, "already running", f"pid {holder.pid}", str(run))
+        assert (run / "run.lock").read_text().startswith(f"pid {holder.pid} on host ")
+        # the lock of a process in this one (another open file) is refused the same way
+        from optdesign.runs import RunFolder, RunFolderError
+
+        with pytest.raises(RunFolderError, match=f"already running .*pid {holder.pid}"):
+            RunFolder(run).lock()
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    rc, out, err = run_cli_in(tmp_path, ["run", "--resume", str(run), "--quiet"])   # a finished run: its summary
+    assert rc == 0 and "complete" in out, err
+    with RunFolder(run).lock():            # released when the command ended
+        pass
+
+
+def test_run_holds_the_lock_for_its_whole_life(tmp_path, monkeypatch):
+    """While the pipeline of a new run goes on, its folder is locked."""
+    from optdesign.config import load_config
+    from optdesign.optimize import runner
+    from optdesign.runs import RunFolder, RunFolderError
+
+    seen = []
+
+    def pipeline(cfg, folder, *a, **k):
+        with pytest.raises(RunFolderError, match="already running"):
+            RunFolder(folder.path).lock()
+        seen.append(folder.path)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(runner, "run_pipeline", pipeline)
+    with pytest.raises(RuntimeError, match="stop here"):
+        runner.start_run(load_config(ROOT / "tests" / "data" / "p4s_tiny.yaml"), out=tmp_path / "runs")
+    with RunFolder(seen[0]).lock():        # released once the run ended (here by an error)
+        pass

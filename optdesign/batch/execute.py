@@ -116,7 +116,8 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
                                        sweep=task.sweep)
             except FileExistsError:  # another worker created it meanwhile: resume it
                 state = "resumed"
-        run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
+        with folder.lock():     # another worker running this folder: this task fails, naming it
+            run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
     except (RunFolderError, ConfigError, RuntimeError, ValueError, ArithmeticError, OSError) as exc:
         try:
             row = row_from_folder(folder.path)
