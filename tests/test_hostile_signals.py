@@ -60,3 +60,38 @@ def test_signal_stops_the_batch_and_its_workers(tmp_path, sig, to_group, status)
     # the interrupted runs are resumable: their folders are there, unfinished
     manifests = list(Path(tmp_path / "runs").glob("*/manifest.json"))
     assert len(manifests) == 2
+
+
+_HOOK = '''
+import os, signal, sys
+
+class _SignalAtImport:
+    """Sends SIGTERM to this process when the module named in the environment is first imported."""
+    def find_spec(self, name, path=None, target=None):
+        if name == os.environ.get("OPTDESIGN_TEST_SIGTERM_AT"):
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGTERM)
+        return None
+
+sys.meta_path.insert(0, _SignalAtImport())
+'''
+
+
+@pytest.mark.parametrize("module", ["numpy", "optdesign.commands.run", "optdesign.optimize.runner", "pymoo"],
+                         ids=["heavy imports", "parser", "the command's imports", "the optimizer's imports"])
+@pytest.mark.parametrize("entry", ["optdesign", "optdesign.cli"])
+def test_sigterm_while_starting_gives_143_and_one_line(tmp_path, module, entry):
+    """SIGTERM at a given point of the start (sent by an import hook when that
+    module is first imported: a condition, not a delay) ends the command with
+    143 and one line, never by the signal itself."""
+    (tmp_path / "hook").mkdir()
+    (tmp_path / "hook" / "sitecustomize.py").write_text(_HOOK)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path / "hook"), str(ROOT)]),
+           "OPTDESIGN_TEST_SIGTERM_AT": module, "OPTDESIGN_WARMUP": "0"}
+    proc = subprocess.run([sys.executable, "-m", entry, "run", str(ROOT / "tests" / "data" / "p4s_tiny.yaml"), "--quiet",
+                           "--out", str(tmp_path / "runs")], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 143, (proc.returncode, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("optdesign: interrupted"), proc.stderr
+    assert "SIGTERM" in lines[0] or "run interrupted" in lines[0] or "before the run started" in lines[0], lines
