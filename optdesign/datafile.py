@@ -105,12 +105,16 @@ def read(path: str | os.PathLike) -> tuple[dict, dict[str, np.ndarray]]:
         if exc.errno == errno.ELOOP:
             raise DataFileError("a symbolic link (a run folder holds none)") from None
         raise DataFileError(f"cannot be read ({exc.strerror})") from None
-    with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fh.fileno())
+    try:
+        st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
             raise DataFileError("not a regular file")
         if st.st_size > MAX_BYTES:
             raise DataFileError(f"larger than {MAX_BYTES // 2 ** 20} MiB")
+    except BaseException:
+        os.close(fd)
+        raise
+    with os.fdopen(fd, "rb") as fh:
         data = fh.read(MAX_BYTES + 1)
     if len(data) > MAX_BYTES:
         raise DataFileError(f"larger than {MAX_BYTES // 2 ** 20} MiB")
