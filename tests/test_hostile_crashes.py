@@ -210,3 +210,14 @@ def test_run_holds_the_lock_for_its_whole_life(tmp_path, monkeypatch):
         runner.start_run(load_config(ROOT / "tests" / "data" / "p4s_tiny.yaml"), out=tmp_path / "runs")
     with RunFolder(seen[0]).lock():        # released once the run ended (here by an error)
         pass
+
+
+def test_a_batch_summary_never_reads_results_through_a_link(tmp_path):
+    from optdesign.batch.summary import row_from_folder
+    from optdesign.runs import RunFolderError
+
+    run = _copy_run(tmp_path)
+    assert row_from_folder(run)["objective"] is not None
+    _link_to_copy(run / "results.json", tmp_path / "elsewhere.json")
+    with pytest.raises(RunFolderError, match="symbolic link"):
+        row_from_folder(run)
