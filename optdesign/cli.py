@@ -8,14 +8,59 @@ run that failed or was interrupted, 2 a mistake in the input (config, options),
 """
 from __future__ import annotations
 
-import argparse
-import importlib
-import pkgutil
+import signal
 import sys
 
-from . import __version__
-from .commands._common import UsageError  # owned by the commands; optdesign.cli.UsageError stays an alias
-from .config import ConfigError
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (or SIGINT) reached the command before it installed its own
+    handler: the command ends as on Ctrl-C, with status 128 + ``signum``."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+_IN_MAIN = [False]
+
+
+def _early_signal(signum, frame):
+    """The handler of SIGTERM and SIGINT from the first line of the command on
+    (before the heavy imports).  While the modules are still being imported
+    nothing needs cleaning up: one line and exit 128 + signum.  Once main()
+    runs, :class:`Terminated` unwinds the command (temporary files removed)
+    to main(), which prints the line; a command that runs an optimization
+    installs its own handler (optdesign.optimize.workers.StopRequest)."""
+    if not _IN_MAIN[0]:
+        print(f"optdesign: interrupted ({signal.Signals(signum).name}) while starting", file=sys.stderr, flush=True)
+        raise SystemExit(128 + signum)
+    raise Terminated(signum)
+
+
+def _is_entry_process() -> bool:
+    """This process is the ``optdesign`` command (the console script, ``python
+    -m optdesign`` or ``python -m optdesign.cli``), not a program importing the module."""
+    import os
+
+    argv0 = sys.argv[0] if sys.argv else ""
+    return os.path.basename(argv0) == "optdesign" or (
+        os.path.basename(os.path.dirname(argv0)) == "optdesign" and os.path.basename(argv0) in ("__main__.py", "cli.py"))
+
+
+if _is_entry_process():
+    for _sig in (signal.SIGTERM, signal.SIGINT):
+        try:
+            signal.signal(_sig, _early_signal)
+        except ValueError:   # pragma: no cover - not the main thread
+            pass
+
+import argparse  # noqa: E402 - after the signal handlers: the imports below take seconds on a busy machine
+import importlib  # noqa: E402
+import pkgutil  # noqa: E402
+
+from . import __version__  # noqa: E402
+from .commands._common import UsageError  # noqa: E402 - owned by the commands; optdesign.cli.UsageError stays an alias
+from .config import ConfigError  # noqa: E402
 
 #: order in which commands are listed in --help
 _ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
@@ -173,6 +218,21 @@ def _tolerant_output() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command; ``argv`` None: this process is the command (its signal
+    handlers are the command's, see :func:`_early_signal`)."""
+    if argv is None and signal.getsignal(signal.SIGTERM) is _early_signal:
+        _IN_MAIN[0] = True
+        if signal.getsignal(signal.SIGINT) is _early_signal:
+            signal.signal(signal.SIGINT, signal.default_int_handler)   # Ctrl-C: KeyboardInterrupt, as before
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:     # Ctrl-C, or Terminated by SIGTERM before a command's own handler
+        signum = getattr(exc, "signum", None) or signal.SIGINT
+        print("optdesign: interrupted" + (" (SIGTERM)" if signum == signal.SIGTERM else ""), file=sys.stderr)
+        return 128 + int(signum)
+
+
+def _main(argv: list[str] | None) -> int:
     from .io import UnsafeDestination
     from .names import OutsideRoot
     from .workspace import WorkspaceTooLarge
@@ -195,9 +255,6 @@ def main(argv: list[str] | None = None) -> int:
         return _error(str(exc))
     except (WorkspaceTooLarge, OutsideRoot, UnsafeDestination) as exc:
         return _error(str(exc))
-    except KeyboardInterrupt:
-        print("optdesign: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # output piped into head and the like
         return 0
 

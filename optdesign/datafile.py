@@ -13,6 +13,7 @@ writes of the same state give the same file.
 """
 from __future__ import annotations
 
+import errno
 import io
 import json
 import os
@@ -95,17 +96,28 @@ def _array(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
 def read(path: str | os.PathLike) -> tuple[dict, dict[str, np.ndarray]]:
     """``(meta, arrays)`` of a data file, or DataFileError."""
     path = Path(path)
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
-        st = os.stat(path)
+        fd = os.open(path, flags)     # never through a symbolic link (ELOOP)
     except FileNotFoundError:
         raise
     except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise DataFileError("a symbolic link (a run folder holds none)") from None
         raise DataFileError(f"cannot be read ({exc.strerror})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise DataFileError("not a regular file")
-    if st.st_size > MAX_BYTES:
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise DataFileError("not a regular file")
+        if st.st_size > MAX_BYTES:
+            raise DataFileError(f"larger than {MAX_BYTES // 2 ** 20} MiB")
+    except BaseException:
+        os.close(fd)
+        raise
+    with os.fdopen(fd, "rb") as fh:
+        data = fh.read(MAX_BYTES + 1)
+    if len(data) > MAX_BYTES:
         raise DataFileError(f"larger than {MAX_BYTES // 2 ** 20} MiB")
-    data = path.read_bytes()
     try:
         zf = zipfile.ZipFile(io.BytesIO(data))
         infos = zf.infolist()

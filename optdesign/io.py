@@ -2,6 +2,7 @@
 so an interrupted program never leaves a half-written file."""
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import os
@@ -45,6 +46,77 @@ def check_destination(path: str | os.PathLike) -> None:
         raise UnsafeDestination(f"{os.fsdecode(path)!s}: is a symbolic link; refusing to write through or over it")
     if not stat.S_ISREG(st.st_mode):
         raise UnsafeDestination(f"{os.fsdecode(path)!s}: exists and is not a regular file; refusing to replace it")
+
+
+class UnsafeSource(Exception):
+    """A file to read is a symbolic link (or lies under one), or is not a
+    regular file, or is too large: nothing is read (one line naming the file)."""
+
+
+def read_no_links(path: str | os.PathLike, limit: int, root: str | os.PathLike | None = None) -> bytes:
+    """The bytes of a regular file, never through a symbolic link: the file
+    is opened with ``O_NOFOLLOW`` (and ``O_NONBLOCK``, so a FIFO never blocks)
+    and checked with ``fstat`` on the open descriptor, so a link planted
+    between a check and the read is refused too.  With ``root``, every folder
+    between ``root`` and the file is opened the same way (``root`` itself may
+    be reached through a link: the user named it).  FileNotFoundError if the
+    file is absent; :class:`UnsafeSource` for a link, a non-regular file or
+    one larger than ``limit`` bytes."""
+    path = Path(path)
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+    dflags = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    fds: list[int] = []
+    try:
+        if root is not None:
+            try:
+                parts = path.relative_to(root).parts
+            except ValueError:
+                raise UnsafeSource(f"{path}: not inside {root}") from None
+            if not parts or ".." in parts:
+                raise UnsafeSource(f"{path}: not a file inside {root}")
+            fds.append(os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0)))
+            here = Path(root)
+            for part in parts[:-1]:
+                here = here / part
+                try:
+                    fds.append(os.open(part, dflags, dir_fd=fds[-1]))
+                except OSError as exc:
+                    if exc.errno in (errno.ELOOP, errno.ENOTDIR):
+                        raise UnsafeSource(f"{here}: a symbolic link or not a folder; refusing to read through it") \
+                            from None
+                    raise
+            name, dir_fd = parts[-1], fds[-1]
+        else:
+            name, dir_fd = str(path), None
+        try:
+            fd = os.open(name, flags, dir_fd=dir_fd)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise UnsafeSource(f"{path}: a symbolic link; refusing to read through it") from None
+            if exc.errno in (errno.ENOENT,):
+                raise
+            if exc.errno == errno.ENOTDIR:
+                raise UnsafeSource(f"{path}: a folder on its path is not a folder") from None
+            raise UnsafeSource(f"{path}: cannot be read ({exc.strerror or type(exc).__name__})") from None
+        fds.append(fd)
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise UnsafeSource(f"{path}: not a regular file")
+        if st.st_size > limit:
+            raise UnsafeSource(f"{path}: larger than {limit} bytes")
+        chunks, total = [], 0
+        while True:
+            b = os.read(fd, 1 << 20)
+            if not b:
+                break
+            total += len(b)
+            if total > limit:
+                raise UnsafeSource(f"{path}: larger than {limit} bytes")
+            chunks.append(b)
+        return b"".join(chunks)
+    finally:
+        for f in fds:
+            os.close(f)
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes, durable: bool = True) -> None:
@@ -99,3 +171,52 @@ def _json_default(o):
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON serializable: {type(o).__name__}")
+
+
+class LockHeld(Exception):
+    """The lock is held by another process (the message names it, as its lock file says)."""
+
+
+class FileLock:
+    """An exclusive ``fcntl.flock`` on ``path`` (created if absent, never
+    through a symbolic link), taken at once or :class:`LockHeld`; the file
+    then holds ``pid <pid> on host <host>``.  Held until :meth:`release` (or
+    the end of a ``with`` block); the kernel drops it when the process
+    exits, however it ends."""
+
+    def __init__(self, path: str | os.PathLike):
+        import fcntl
+        import socket
+
+        self.path = Path(path)
+        flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0) \
+            | getattr(os, "O_NONBLOCK", 0)
+        try:
+            self.fd: int | None = os.open(self.path, flags, _file_mode())
+        except OSError as exc:
+            what = "a symbolic link" if exc.errno == errno.ELOOP else f"cannot be opened ({exc.strerror})"
+            raise UnsafeSource(f"{self.path}: {what}") from None
+        try:
+            if not stat.S_ISREG(os.fstat(self.fd).st_mode):
+                raise UnsafeSource(f"{self.path}: not a regular file")
+            try:
+                fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(self.fd, 200, 0).decode("utf-8", "replace").strip() or "another process"
+                raise LockHeld("locked by " + "".join(c if c.isprintable() else "?" for c in holder)[:120]) from None
+            os.ftruncate(self.fd, 0)
+            os.pwrite(self.fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode(), 0)
+        except BaseException:
+            os.close(self.fd)
+            raise
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)       # closing its descriptor drops the flock
+            self.fd = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

@@ -11,6 +11,7 @@ Layout of ``runs/<name>/``::
     results.json         the optimum and its global indices, the normalization, the paper's values
     results.md           Table 3 and the index table beside the paper's
     pareto_<alg>.csv     Pareto fronts (NSGA-II / NSGA-III)
+    run.lock             flock of the process running in the folder (its pid and host)
     convergence.png, pareto.png
 
 Every file is written to a temporary name and renamed, so an interrupted run
@@ -31,13 +32,12 @@ import math
 import os
 import platform
 import secrets
-import stat
 import sys
 from pathlib import Path
 from typing import Any
 
 from . import datafile
-from .io import atomic_write_bytes, atomic_write_json, atomic_write_text
+from .io import FileLock, LockHeld, UnsafeSource, atomic_write_bytes, atomic_write_json, atomic_write_text, read_no_links
 
 __all__ = ["RunFolder", "RunFolderError", "FORMAT_VERSION", "run_key", "package_versions"]
 
@@ -84,25 +84,22 @@ def _binding(run_id: str, config_sha: str, seed: int, pareto: bool) -> str:
     return _sha256(json.dumps([run_id, config_sha, int(seed), bool(pareto)]).encode())[:32]
 
 
-def _read_bytes(path: Path, limit: int) -> bytes:
-    """A regular file's bytes (no FIFO, device or directory; at most ``limit``)."""
+def _read_bytes(path: Path, limit: int, root: Path | None = None) -> bytes:
+    """A regular file's bytes (at most ``limit``), never through a symbolic link (io.read_no_links)."""
     try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise
+        return read_no_links(path, limit, root)
+    except UnsafeSource as exc:
+        raise RunFolderError(str(exc)) from None
     except OSError as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
         raise RunFolderError(f"{path}: cannot be read ({exc.strerror})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise RunFolderError(f"{path}: not a regular file")
-    if st.st_size > limit:
-        raise RunFolderError(f"{path}: larger than {limit // 2 ** 20} MiB")
-    return path.read_bytes()
 
 
-def _read_json(path: Path) -> Any:
-    data = _read_bytes(path, MAX_JSON)
+def _read_json(path: Path, root: Path | None = None, data: bytes | None = None) -> Any:
+    """The JSON value of a file (or of its ``data`` already read)."""
     try:
-        return json.loads(data.decode("utf-8"))
+        return json.loads((_read_bytes(path, MAX_JSON, root) if data is None else data).decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise RunFolderError(f"{path}: corrupted (not valid JSON)") from None
 
@@ -168,26 +165,19 @@ class RunFolder:
             raise RunFolderError(f"run folder name: {problem}")
         parent = Path(parent)
         parent.mkdir(parents=True, exist_ok=True)
-        if exact:
-            path = parent / name
+        stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+        while True:
+            path = parent / (name if exact else f"{name}-s{seed}-{stamp}-{secrets.token_hex(2)}")
             try:
                 check_inside(parent, path)
             except OutsideRoot as exc:
                 raise RunFolderError(str(exc)) from None
-            path.mkdir()
-        else:
-            stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-            while True:
-                path = parent / f"{name}-s{seed}-{stamp}-{secrets.token_hex(2)}"
-                try:
-                    check_inside(parent, path)
-                except OutsideRoot as exc:
-                    raise RunFolderError(str(exc)) from None
-                try:
-                    path.mkdir()
-                    break
-                except FileExistsError:
-                    continue
+            try:
+                path.mkdir()
+                break
+            except FileExistsError:
+                if exact:       # the exact name must not exist
+                    raise
         rf = cls(path)
         atomic_write_text(path / "config.yaml", config_text)
         run_id, sha = secrets.token_hex(8), _sha256(config_text.encode("utf-8"))
@@ -201,6 +191,16 @@ class RunFolder:
         })
         return rf
 
+    def lock(self) -> FileLock:
+        """The folder's exclusive lock (io.FileLock on ``run.lock``: a flock, the file holding the holder's pid
+        and host), held for a run's whole life; RunFolderError naming the holder if another process has it."""
+        try:
+            return FileLock(self.path / "run.lock")
+        except LockHeld as exc:
+            raise RunFolderError(f"{self.path}: already running ({exc}); wait for that run to end or stop it") from None
+        except UnsafeSource as exc:
+            raise RunFolderError(f"{exc}; the run folder cannot be locked") from None
+
     # ------------------------------------------------------------------ manifest
     @property
     def manifest_path(self) -> Path:
@@ -212,7 +212,7 @@ class RunFolder:
         if not self.path.is_dir():
             raise RunFolderError(f"{self.path}: not a run folder (no such directory)")
         try:
-            m = _read_json(self.manifest_path)
+            m = _read_json(self.manifest_path, self.path)
         except FileNotFoundError:
             raise RunFolderError(f"{self.path}: not a run folder (no manifest.json)") from None
         if not strict and isinstance(m, dict) and m.get("format_version") == FORMAT_VERSION - 1:
@@ -234,7 +234,7 @@ class RunFolder:
     def config_text(self) -> str:
         p = self.path / "config.yaml"
         try:
-            return _read_bytes(p, MAX_CONFIG).decode("utf-8")
+            return _read_bytes(p, MAX_CONFIG, self.path).decode("utf-8")
         except FileNotFoundError:
             raise RunFolderError(f"{self.path}: not a run folder (no config.yaml)") from None
         except UnicodeDecodeError:
@@ -281,22 +281,27 @@ class RunFolder:
             raise RunFolderError(f"{self.manifest_path}: a file record names {str(rel)[:80]!r}")
         return self.path / rel
 
-    @staticmethod
-    def _sha(p: Path) -> str:
-        return _sha256(_read_bytes(p, datafile.MAX_BYTES))
+    def _sha(self, p: Path) -> str:
+        return _sha256(_read_bytes(p, datafile.MAX_BYTES, self.path))
+
+    def read_recorded(self, rel: str, want: str | None, since: str, limit: int = datafile.MAX_BYTES) -> bytes:
+        """File ``rel``'s bytes, read once (no link) and checked against the recorded SHA-256 ``want`` (None: none)."""
+        p = self._file(rel)
+        try:
+            data = _read_bytes(p, limit, self.path)
+        except FileNotFoundError:
+            raise RunFolderError(f"{p}: missing (the manifest records it)") from None
+        if want is not None and _sha256(data) != want:
+            raise RunFolderError(f"{p}: changed since {since} (its SHA-256 is not the manifest's)")
+        return data
 
     def _verify_files(self, files: dict, since: str) -> None:
         for rel, want in files.items():
-            p = self._file(rel)
-            try:
-                got = self._sha(p)
-            except FileNotFoundError:
-                raise RunFolderError(f"{p}: missing (the manifest records it)") from None
-            if got != want:
-                raise RunFolderError(f"{p}: changed since {since} (its SHA-256 is not the manifest's)")
+            self.read_recorded(rel, want if isinstance(want, str) else "", since)
 
     def _hashes(self, rels) -> dict[str, str]:
-        return {rel: _sha256((self.path / rel).read_bytes()) for rel in rels if (self.path / rel).is_file()}
+        return {rel: self._sha(self.path / rel) for rel in rels
+                if (self.path / rel).is_file() and not (self.path / rel).is_symlink()}
 
     def binding(self) -> dict:
         """What a checkpoint of this folder must carry: run id, config hash, seed."""
@@ -351,7 +356,7 @@ class RunFolder:
             return None
         self._verify_files(rec["files"], "the stage finished")
         p = self.path / "stages" / stage / "result.json"
-        res = _read_json(p)
+        res = _read_json(p, self.path)
         if not isinstance(res, dict) or res.get("stage") != stage:
             raise RunFolderError(f"{p}: not the result of stage {stage}")
         return res
@@ -400,8 +405,8 @@ class RunFolder:
         """results.json of a complete run, checked against the manifest."""
         m = self.read_manifest()
         p = self.path / "results.json"
-        self._verify_files({"results.json": m.get("results_sha256", "")}, "the run completed")
-        res = _read_json(p)
+        res = _read_json(p, data=self.read_recorded("results.json", m.get("results_sha256", ""), "the run completed",
+                                                    MAX_JSON))
         if not isinstance(res, dict):
             raise RunFolderError(f"{p}: not a JSON object")
         return res

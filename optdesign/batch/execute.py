@@ -74,6 +74,21 @@ def stop_on_signals():
             signal.signal(sig, h)
 
 
+@contextlib.contextmanager
+def _signals_blocked():
+    """SIGINT and SIGTERM held back (delivered when the block ends) in the main thread."""
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    except (AttributeError, ValueError, OSError):   # pragma: no cover - no pthread_sigmask
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def _kill_local_workers() -> None:
     """Kill joblib's loky worker processes and their children (joblib's own
     abort kills the workers of the call, and may start fresh ones for the
@@ -116,7 +131,8 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
                                        sweep=task.sweep)
             except FileExistsError:  # another worker created it meanwhile: resume it
                 state = "resumed"
-        run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
+        with folder.lock():     # another worker running this folder: this task fails, naming it
+            run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
     except (RunFolderError, ConfigError, RuntimeError, ValueError, ArithmeticError, OSError) as exc:
         try:
             row = row_from_folder(folder.path)
@@ -289,8 +305,14 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
                     collect(Parallel(return_as="generator_unordered", batch_size=1)(
                         delayed(run_task)(t, out_abs) for t in todo))
                 break
-            except KeyboardInterrupt:       # a signal (BatchInterrupted) or Ctrl-C: no worker outlives us
-                _kill_local_workers()
+            except KeyboardInterrupt as exc:   # a signal (BatchInterrupted) or Ctrl-C: no worker outlives us
+                # SIGINT to the group also reaches the workers, and a worker's KeyboardInterrupt
+                # can come back through joblib before our own handler has run: the same
+                # interruption.  Our signal, still pending, must not cut the kill short.
+                with _signals_blocked():
+                    _kill_local_workers()
+                if not isinstance(exc, BatchInterrupted):
+                    raise BatchInterrupted(signal.SIGINT) from None
                 raise
             except TerminatedWorkerError as exc:
                 attempt += 1

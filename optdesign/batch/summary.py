@@ -64,7 +64,7 @@ def row_from_folder(path: str | os.PathLike) -> dict:
     res_path = folder.path / "results.json"
     if m.get("status") == "complete" and res_path.exists():
         try:
-            r = json.loads(res_path.read_text())
+            r = json.loads(folder.read_recorded("results.json", None, "the run completed").decode("utf-8"))  # no link
         except (json.JSONDecodeError, UnicodeDecodeError):
             raise RunFolderError(f"{res_path}: corrupted (not valid JSON)") from None
         row["config"] = row["config"] or r.get("config")

@@ -335,20 +335,29 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
             active[k] = int(on.sum())
             cols += [-G[j] for j in np.flatnonzero(on)]   # c <= 0: -grad c points inside
     cols += [np.eye(len(u))[i] for i in np.flatnonzero(low)] + [-np.eye(len(u))[i] for i in np.flatnonzero(high)]
+    bounds = [f"{names[i]} at its lower bound" for i in np.flatnonzero(low)]
+    bounds += [f"{names[i]} at its upper bound" for i in np.flatnonzero(high)]
+    jump = _one_sided_jump(problem, np.asarray(x, dtype=float), width)
+    common = {"one_sided_jump": jump if np.isfinite(jump) else None, "differentiable": bool(jump <= KINK),
+              "tolerance": TOLERANCE, "active_bounds": bounds, "active_constraints": active, "route": d.route,
+              "objective_scale": scale if np.isfinite(scale) else None}
+    if not (np.all(np.isfinite(g)) and all(np.all(np.isfinite(c)) for c in cols)):
+        # impossible geometry next to x (a square root of a negative number in
+        # the model, say): no derivative there, so no first-order measure
+        return {**common, "measurable": False, "gradient_norm": None, "projected_gradient_norm": None,
+                "kkt_residual": None, "kkt_relative": None, "converged": False,
+                "note": "the derivative of the objective or of an active constraint is not finite at this design "
+                        "(impossible geometry next to it): no first-order measure"}
     if cols:
         A = np.stack(cols, axis=1)
         with threadpool_limits(limits=1, user_api="blas"):
             _, res = nnls(A, g)
     else:
         res = float(np.linalg.norm(g))
-    bounds = [f"{names[i]} at its lower bound" for i in np.flatnonzero(low)]
-    bounds += [f"{names[i]} at its upper bound" for i in np.flatnonzero(high)]
     gn = float(np.linalg.norm(g))
-    jump = _one_sided_jump(problem, np.asarray(x, dtype=float), width)
-    return {"one_sided_jump": jump, "differentiable": jump <= KINK, "gradient_norm": gn, "projected_gradient_norm": float(np.linalg.norm(proj)),
-            "kkt_residual": float(res), "kkt_relative": float(res) / max(1.0, gn), "tolerance": TOLERANCE,
-            "converged": float(res) / max(1.0, gn) <= TOLERANCE, "active_bounds": bounds,
-            "active_constraints": active, "route": d.route, "objective_scale": scale}
+    return {**common, "measurable": True, "gradient_norm": gn, "projected_gradient_norm": float(np.linalg.norm(proj)),
+            "kkt_residual": float(res), "kkt_relative": float(res) / max(1.0, gn),
+            "converged": float(res) / max(1.0, gn) <= TOLERANCE}
 
 
 def _one_sided_jump(problem, x: np.ndarray, width: np.ndarray, h_rel: float = 1e-6) -> float:
@@ -360,7 +369,10 @@ def _one_sided_jump(problem, x: np.ndarray, width: np.ndarray, h_rel: float = 1e
     n = len(x)
     h = h_rel * width
     X = np.concatenate([x[None], x + np.diag(h), x - np.diag(h)])
-    F, _, _ = _check(problem, X)
+    with np.errstate(all="ignore"):
+        F, _, _ = _check(problem, X)
+    if not np.all(np.isfinite(F)):
+        return float("inf")      # the objective is not finite next to x (impossible geometry): no slope
     right, left = (F[1:n + 1] - F[0]) / h, (F[0] - F[n + 1:]) / h
     scale = max(abs(float(F[0])), float(np.max(np.maximum(np.abs(right), np.abs(left)) * width)), 1e-300)
     return float(np.max(np.abs(right - left) * width) / scale)

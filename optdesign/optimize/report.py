@@ -299,18 +299,25 @@ def optimality_lines(cfg: Config, results: dict) -> list[str]:
     act = ", ".join(o["active_bounds"]) or "none"
     cons = ", ".join(f"{k} at {n} workspace point(s)" for k, n in o["active_constraints"].items()) or "none"
     rel = o.get("kkt_relative", o["kkt_residual"])
-    ok = "below" if rel <= o["tolerance"] else "ABOVE"
     out = ["", "### The optimum's polish", "",
            f"- Weighted sum found by the search: {_f(p.get('ga_objective'))}; after the gradient polish "
            f"({p.get('starts', '?')} starts, derivatives by {'automatic differentiation' if o['route'] == 'ad' else 'central differences'}): "
            f"{_f(p.get('objective'))} (improvement {_f(p.get('improvement'))}).",
-           f"- First-order optimality at the optimum (objective scaled by {_f(o['objective_scale'])}, design "
-           f"variables scaled to the unit box): KKT residual {_f(o['kkt_residual'])}, "
-           f"{_f(rel)} relative to max(1, gradient norm) ({ok} the tolerance {_f(o['tolerance'])}); projected "
-           f"gradient norm {_f(o['projected_gradient_norm'])} (active bounds only), gradient norm "
-           f"{_f(o['gradient_norm'])}.",
            f"- Active bounds: {act}. Active constraints: {cons}."]
-    if o.get("differentiable") is False:
+    if o.get("measurable") is False or rel is None:
+        out.insert(4, "- First-order optimality at the optimum: not measured, the derivative of the objective or of an "
+                      "active constraint is not finite there (impossible geometry next to the design).")
+    else:
+        ok = "below" if rel <= o["tolerance"] else "ABOVE"
+        out.insert(4, f"- First-order optimality at the optimum (objective scaled by {_f(o['objective_scale'])}, design "
+                      f"variables scaled to the unit box): KKT residual {_f(o['kkt_residual'])}, "
+                      f"{_f(rel)} relative to max(1, gradient norm) ({ok} the tolerance {_f(o['tolerance'])}); projected "
+                      f"gradient norm {_f(o['projected_gradient_norm'])} (active bounds only), gradient norm "
+                      f"{_f(o['gradient_norm'])}.")
+    if o.get("differentiable") is False and (o.get("measurable") is False or o.get("one_sided_jump") is None):
+        out.append("- The objective is not finite next to the optimum along one variable (impossible geometry "
+                   "there): the optimum sits at the edge of the feasible designs and the measure is no certificate.")
+    elif o.get("differentiable") is False:
         out.append(f"- The objective is not differentiable at the optimum (the jump of its slope across the "
                    f"optimum along one variable is {_f(o['one_sided_jump'])} of its scale: a singular value an index takes crosses "
                    "its neighbour somewhere in W, a symmetric design for instance): the optimum sits on that kink "

@@ -39,10 +39,11 @@ def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "ru
     text = config_text(cfg)
     key = run_key(text, seed, {"pareto": pareto})
     folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name, pareto=pareto)
-    if stop is not None:
-        stop.folder = folder.path
-    folder.update_manifest(config_source=cfg.source, config_name=cfg.name)
-    return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs, stop=stop)
+    with folder.lock():        # held for the run's life: a resume of this folder meanwhile is refused
+        if stop is not None:
+            stop.folder = folder.path
+        folder.update_manifest(config_source=cfg.source, config_name=cfg.name)
+        return run_pipeline(cfg, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs, stop=stop)
 
 
 def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_after: int | None = None,
@@ -50,6 +51,12 @@ def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_a
     """Finish an interrupted run in its own folder (completed stages are kept,
     once the folder is checked against its manifest)."""
     folder = RunFolder(path)
+    folder.read_manifest()              # a folder that is no run folder gets no run.lock
+    with folder.lock():                 # one run at a time in a folder: a second resume is refused
+        return _resume_locked(folder, progress, stop_after, jobs, stop)
+
+
+def _resume_locked(folder: RunFolder, progress, stop_after, jobs, stop) -> PipelineResult:
     m = folder.read_manifest()
     if stop is not None:
         stop.folder = folder.path

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import Config, parse_config
-from ..runs import RunFolder, RunFolderError
+from ..runs import FORMAT_VERSION, MAX_CONFIG, MAX_JSON, RunFolder, RunFolderError
 from ..units import strip_unit
 
 __all__ = ["RunData", "Front", "load_run", "MAX_FILE_BYTES"]
@@ -47,21 +47,17 @@ class RunData:
     fronts: dict[str, Front] = field(default_factory=dict)
 
 
-def _read_text(p: Path) -> str:
-    if p.stat().st_size > MAX_FILE_BYTES:
-        raise RunFolderError(f"{p}: too large for a run folder file ({p.stat().st_size} bytes)")
+def _text(data: bytes, p: Path) -> str:
     try:
-        return p.read_text(encoding="utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError:
         raise RunFolderError(f"{p}: not a text file") from None
 
 
-def _read_json(p: Path) -> dict:
+def _json_object(data: bytes, p: Path) -> dict:
     try:
-        d = json.loads(_read_text(p))
-    except FileNotFoundError:
-        raise RunFolderError(f"{p.parent}: not a finished run (no {p.name})") from None
-    except json.JSONDecodeError:
+        d = json.loads(_text(data, p))
+    except (json.JSONDecodeError, RecursionError):
         raise RunFolderError(f"{p}: corrupted (not valid JSON)") from None
     if not isinstance(d, dict):
         raise RunFolderError(f"{p}: corrupted (not a JSON object)")
@@ -76,8 +72,7 @@ def _num(s) -> float:
     return x
 
 
-def _read_csv(p: Path) -> tuple[list[str], np.ndarray]:
-    text = _read_text(p)
+def _read_csv(text: str) -> tuple[list[str], np.ndarray]:
     rows = list(csv.reader(text.splitlines()))
     if not rows:
         return [], np.zeros((0, 0))
@@ -115,51 +110,115 @@ def _front(name: str, head: list[str], data: np.ndarray, cfg: Config, terms: lis
 
 
 def load_run(path) -> RunData:
-    """Read a finished run folder; RunFolderError (one line) if it is not one."""
+    """Read a finished run folder; RunFolderError (one line) if it is not one.
+
+    Every file is opened without following a symbolic link (nor one of the
+    folders below the run folder) and checked against the SHA-256 the
+    manifest records for it before it is used: config.yaml, results.json,
+    each finished stage's files and the Pareto CSV files.  A stage file the
+    manifest does not record is not read (in a folder of the previous format,
+    which records no hashes of some files, those are read unchecked)."""
     folder = RunFolder(Path(path))
     m = folder.read_manifest(strict=False)   # read only: the previous format too
     if m.get("status") != "complete":
         raise RunFolderError(f"{folder.path}: not a finished run (status: {m.get('status', 'unknown')})")
     root = folder.path.resolve()
-    res_path = root / "results.json"
-    results = _read_json(res_path)
+    folder = RunFolder(root)
+    current = m.get("format_version") == FORMAT_VERSION
+
+    def want(key: str):
+        v = m.get(key)
+        return v if isinstance(v, str) else ("" if current else None)   # "": matches no file
+
+    def read(rel: str, sha, since: str, limit: int = MAX_FILE_BYTES) -> bytes:
+        try:
+            return folder.read_recorded(rel, sha, since, limit)
+        except RunFolderError as exc:
+            if sha is None and "missing" in str(exc):
+                raise FileNotFoundError(rel) from None
+            raise
+
+    cfg_path, res_path = root / "config.yaml", root / "results.json"
     try:
-        text = _read_text(root / "config.yaml")
+        text = _text(read("config.yaml", want("config_sha256"), "the run started", MAX_CONFIG), cfg_path)
     except FileNotFoundError:
         raise RunFolderError(f"{root}: not a run folder (no config.yaml)") from None
-    cfg = parse_config(text, source=str(root / "config.yaml"))
+    try:
+        results = _json_object(read("results.json", want("results_sha256"), "the run completed", MAX_JSON), res_path)
+    except FileNotFoundError:
+        raise RunFolderError(f"{root}: not a finished run (no results.json)") from None
+    cfg = parse_config(text, source=str(cfg_path))
     name = m.get("config_name") or m.get("name")
     if isinstance(name, str) and name:
         cfg.name = name
     _check_results(res_path, results, cfg)
     data = RunData(root, m, results, cfg)
+    records = m.get("stages") if isinstance(m.get("stages"), dict) else {}
     order = [s for s in m.get("stages_done", []) if isinstance(s, str)]
     sdir = root / "stages"
-    if sdir.is_dir():
-        order += sorted(p.name for p in sdir.iterdir() if p.is_dir() and p.name not in order)
+    if current:
+        _check_stages(root, order, records)
+    elif sdir.is_dir() and not sdir.is_symlink():
+        order += sorted(p.name for p in sdir.iterdir() if p.is_dir() and not p.is_symlink() and p.name not in order)
+    files: dict[str, str | None] = {}
     for s in order:
-        d = sdir / s
-        if not d.is_dir() or d.is_symlink():
-            continue
-        if (d / "result.json").is_file():
-            data.stages[s] = _read_json(d / "result.json")
-        if (d / "history.csv").is_file():
-            head, arr = _read_csv(d / "history.csv")
+        rec = records.get(s)
+        rec_files = rec.get("files") if isinstance(rec, dict) and isinstance(rec.get("files"), dict) else None
+        if current:
+            for rel, sha in rec_files.items():   # every file of the stage, unchanged
+                files[rel] = read(rel, sha, "the stage finished")
+        for f in ("result.json", "history.csv"):
+            rel = f"stages/{s}/{f}"
+            if rel in files or current:
+                continue
+            try:
+                files[rel] = read(rel, None, "the stage finished")
+            except FileNotFoundError:
+                pass
+        if f"stages/{s}/result.json" in files:
+            data.stages[s] = _json_object(files[f"stages/{s}/result.json"], root / f"stages/{s}/result.json")
+        if f"stages/{s}/history.csv" in files:
+            head, arr = _read_csv(_text(files[f"stages/{s}/history.csv"], root / f"stages/{s}/history.csv"))
             head = [strip_unit(h) for h in head]   # 'best_stiffness [N/m]' -> 'best_stiffness'
             data.history[s] = [dict(zip(head, row)) for row in arr]
     for s, r in data.stages.items():
         if r.get("kind") != "pareto":
             continue
-        p = root / f"{s}.csv"
         terms = r.get("terms") if isinstance(r.get("terms"), list) else None
         # the stage's result holds the front as the optimizer saw it (SI, minimized
         # objectives); the CSV file shows it in the config's units
         if isinstance(r.get("front"), list) and r["front"] and isinstance(r["front"][0], dict):
             head = list(r["front"][0])
             arr = np.array([[_num(row.get(h)) for h in head] for row in r["front"] if isinstance(row, dict)])
-        elif p.is_file():
-            head, arr = _read_csv(p)
+        elif f"{s}.csv" in files:
+            head, arr = _read_csv(_text(files[f"{s}.csv"], root / f"{s}.csv"))
+        elif not current:
+            try:
+                head, arr = _read_csv(_text(read(f"{s}.csv", None, "the stage finished"), root / f"{s}.csv"))
+            except FileNotFoundError:
+                continue
         else:
             continue
         data.fronts[s] = _front(s, head, arr, cfg, terms)
     return data
+
+
+def _check_stages(root: Path, order: list[str], records: dict) -> None:
+    """A finished run of the current format records its stages and their
+    files; say what is missing (one line) before anything is drawn."""
+    sdir = root / "stages"
+    if not order:
+        raise RunFolderError(f"{root / 'manifest.json'}: records no finished stage; the run folder is incomplete")
+    if sdir.is_symlink() or (sdir.exists() and not sdir.is_dir()):
+        raise RunFolderError(f"{sdir}: a symbolic link or not a folder; refusing to read through it")
+    present = sorted(p.name for p in sdir.iterdir()) if sdir.is_dir() else []
+    lost = [s for s in order if s not in present]
+    if lost:
+        where = f"{sdir} is empty" if sdir.is_dir() and not present else \
+            f"{sdir} is missing" if not sdir.is_dir() else f"{sdir} lacks {len(lost)} of them"
+        raise RunFolderError(f"{root}: the manifest records {len(order)} finished stage(s) ({', '.join(lost[:4])}"
+                             f"{', ...' if len(lost) > 4 else ''}) but {where}; the run folder is incomplete")
+    for s in order:
+        rec = records.get(s)
+        if not isinstance(rec, dict) or not isinstance(rec.get("files"), dict) or not rec["files"]:
+            raise RunFolderError(f"{root / 'manifest.json'}: stage {s}: no record of its files")
