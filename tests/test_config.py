@@ -115,6 +115,8 @@ MISTAKES = [
     ("step-negative", _set(["workspace", "step"], -0.01), "workspace.step", "positive"),
     ("step-too-fine", _set(["workspace", "step"], 1e-9), "workspace.step", "at most"),
     ("bad-weight", _set(["optimizer", "weights", "speed"], 1), "optimizer.weights.speed", "unknown index"),
+    ("partial-weights", _set(["optimizer", "weights"], {"dynamic": 1, "stiffness": 1}), "optimizer.weights",
+     "no weight for isotropy; give every index a weight (give 0 to leave one out)"),
     ("bad-probability", _set(["optimizer", "crossover_probability"], 1.5), "optimizer.crossover_probability", "probability"),
     ("top-level-list", [1, 2, 3], "", "expected a mapping"),
     ("count-not-whole", _set(["parameters", "rods_per_branch"], 2.5), "parameters.rods_per_branch", "whole number"),

@@ -249,7 +249,7 @@ def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
     weighted sum, but is still an objective of the Pareto front."""
     text = SMALL.read_text().replace(
         "optimizer: {population: 16, generations: 8,",
-        "optimizer: {weights: {isotropy: 0}, population: 10, generations: 3,")
+        "optimizer: {weights: {dynamic: 1, stiffness: 1, isotropy: 0}, population: 10, generations: 3,")
     cfg_path = tmp_path / "w0.yaml"
     cfg_path.write_text(text)
     res = start_run(load_config(cfg_path), seed=1, out=tmp_path / "runs")

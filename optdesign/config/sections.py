@@ -170,6 +170,10 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
             if k not in indices:
                 r.fail(join(f"{path}.weights", k), f"unknown index{suggest(k, indices)}; expected one of {', '.join(indices)}")
             weights[k] = r.number(v, f"{path}.weights.{k}", nonneg=True)
+        left = [k for k in indices if k not in wm]
+        if left:
+            r.fail(f"{path}.weights", f"no weight for {', '.join(left)}; give every index a weight "
+                                      f"(give 0 to leave one out)")
         if sum(weights.values()) <= 0:
             r.fail(f"{path}.weights", "expected at least one positive weight")
     kw["weights"] = weights
