@@ -42,14 +42,16 @@ def load_config(path: str | os.PathLike) -> Config:
     return cfg
 
 
-def parse_config(text: str, source: str = "<string>") -> Config:
-    """A validated Config from the text of a config file (see :func:`load_config`)."""
+def parse_config(text: str, source: str = "<string>", run_folder: bool = False) -> Config:
+    """A validated Config from the text of a config file (see :func:`load_config`);
+    ``run_folder``: the config.yaml of a run folder, whose keys removed since
+    (``optimizer.normalization``, ``optimizer.min_transmission``) are ignored."""
     if len(text) > yamlsafe.MAX_BYTES:
         raise ConfigError(source, "", f"a config of {len(text):,} characters; expected at most {yamlsafe.MAX_BYTES:,}")
     data = yamlsafe.load(text, source)
     if data is None:
         raise ConfigError(source, "", "empty file; expected a mapping with at least 'mechanism', 'design_variables', 'workspace' and 'indices'")
-    return from_mapping(data, source)
+    return from_mapping(data, source, run_folder=run_folder)
 
 
 def _mechanism(r: Reader, value: Any, label: Any = None):
@@ -73,7 +75,7 @@ def _mechanism(r: Reader, value: Any, label: Any = None):
     return mech_name, get(mech_name)
 
 
-def from_mapping(data: Any, source: str) -> Config:
+def from_mapping(data: Any, source: str, run_folder: bool = False) -> Config:
     """A validated Config from parsed YAML (a mapping, as ``yaml.safe_load`` gives)."""
     from ..indices import INDEX_KINDS
 
@@ -180,7 +182,7 @@ def from_mapping(data: Any, source: str) -> Config:
             opts["k"] = float(params.get("k", mech_cls.fixed_parameters["k"]))
         indices[iname] = IndexSpec(iname, kind, conv, sense, opts)
 
-    optimizer = optimizer_section(r, data.get("optimizer"), dvs, indices, mech_cls)
+    optimizer = optimizer_section(r, data.get("optimizer"), dvs, indices, mech_cls, run_folder=run_folder)
 
     reference: dict[str, dict[str, float]] = {}
     if data.get("reference") is not None:

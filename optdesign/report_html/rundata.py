@@ -127,7 +127,7 @@ def load_run(path) -> RunData:
         text = _read_text(root / "config.yaml")
     except FileNotFoundError:
         raise RunFolderError(f"{root}: not a run folder (no config.yaml)") from None
-    cfg = parse_config(text, source=str(root / "config.yaml"))
+    cfg = parse_config(text, source=str(root / "config.yaml"), run_folder=True)
     name = m.get("config_name") or m.get("name")
     if isinstance(name, str) and name:
         cfg.name = name
