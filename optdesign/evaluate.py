@@ -181,6 +181,14 @@ def _evaluate(cls: type[Mechanism], fixed: Mapping[str, float], full: dict[str, 
     D = len(next(iter(full.values())))
     mech = cls(**{**fixed, **{k: v[:, None] for k, v in full.items()}})
     summary, reach, local = _statistics(mech, ws.X, requests, D, keep_local, ws.weights)
+    invalid = getattr(mech, "invalid_designs", None)
+    if invalid is not None:   # an impossible mass, count, centre or gravity: no index value, infeasible
+        bad = np.broadcast_to(np.asarray(invalid(), dtype=bool), (D,))
+        if bad.any():
+            summary = {k: {s: (np.where(bad, np.nan, v) if s in ("mean", "min", "max", "std") else v)
+                           for s, v in rec.items()} for k, rec in summary.items()}
+            if local is not None:
+                local = {k: np.where(bad[:, None], np.nan, v) for k, v in local.items()}
     return mech, summary, reach, local
 
 

@@ -136,6 +136,12 @@ def from_mapping(data: Any, source: str, run_folder: bool = False) -> Config:
     _check_corners(r, mech_cls, dvs)
     if "initial" not in designs:
         designs = {"initial": {k: v.value for k, v in dvs.items()}, **designs}
+    check_physical = getattr(mech_cls, "check_physical", None)
+    if check_physical is not None:  # a described mechanism: masses, counts, centres, gravity per design
+        problem = check_physical(params, {**{f"design {k!r}": v for k, v in designs.items()},
+                                          **_corners(dvs)})
+        if problem:
+            r.fail(*problem)
     check_config = getattr(mech_cls, "check_config", None)
     if check_config is not None:  # a described mechanism: its expressions and legs with these designs
         problem = check_config(params, designs)
@@ -276,6 +282,20 @@ def _name(r: Reader, value: Any, path: str) -> str:
 
 #: free variables beyond which the corners of the bounds are not all checked (2^12 designs)
 _MAX_CORNER_VARS = 12
+
+
+def _corners(dvs: dict) -> dict[str, dict[str, float]]:
+    """{"at the corner r_a = .., ..": design}: every corner of the bounds' box
+    (the other variables at their values; none beyond 12 free variables)."""
+    free = [v for v in dvs.values() if v.bounds is not None and v.bounds[1] > v.bounds[0]]
+    if not free or len(free) > _MAX_CORNER_VARS:
+        return {}
+    base = {k: v.value for k, v in dvs.items()}
+    out = {}
+    for corner in itertools.product(*(v.bounds for v in free)):
+        at = ", ".join(f"{v.name} = {_display(v, x)}" for v, x in zip(free, corner))
+        out[f"at the corner {at} of the bounds"] = {**base, **{v.name: x for v, x in zip(free, corner)}}
+    return out
 
 
 def _check_corners(r: Reader, mech_cls, dvs: dict) -> None:
