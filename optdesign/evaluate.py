@@ -30,7 +30,8 @@ from .mechanisms.base import IndexRequest
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 
 __all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests", "check_size", "global_indices_error", "error_method"]
+           "index_requests", "check_size", "global_indices_error", "error_method", "unreachable_design",
+           "unreachable_message"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -185,6 +186,14 @@ def _evaluate(cls: type[Mechanism], fixed: Mapping[str, float], full: dict[str, 
     D = len(next(iter(full.values())))
     mech = cls(**{**fixed, **{k: v[:, None] for k, v in full.items()}})
     summary, reach, local = _statistics(mech, ws.X, requests, D, keep_local, ws.weights)
+    invalid = getattr(mech, "invalid_designs", None)
+    if invalid is not None:   # an impossible mass, count, centre or gravity: no index value, infeasible
+        bad = np.broadcast_to(np.asarray(invalid(), dtype=bool), (D,))
+        if bad.any():
+            summary = {k: {s: (np.where(bad, np.nan, v) if s in ("mean", "min", "max", "std") else v)
+                           for s, v in rec.items()} for k, rec in summary.items()}
+            if local is not None:
+                local = {k: np.where(bad[:, None], np.nan, v) for k, v in local.items()}
     return mech, summary, reach, local
 
 
@@ -269,6 +278,32 @@ def evaluate_named(config: Config, names=None, workspace: Workspace | None = Non
             rec["global_indices_status"] = {k: str(v[i]) for k, v in ev.status.items()}
         out[n] = rec
     return out
+
+
+def unreachable_message(config: Config, name: str) -> str:
+    """The one line for a named design that reaches no point of W, with a hint
+    when a length of it was written without a unit and is implausibly large in m."""
+    msg = f"no pose of W is reachable for design {name!r}"
+    cls = mechanism_class(config)
+    design = config.design(name)
+    big = [k for k in cls.length_parameters if k in design and design[k] > 10.0
+           and getattr(config.design_variables.get(k), "unit", None) is None]
+    if big:
+        k = big[0]
+        return (f"{msg}; are the values in m? ({k} = {design[k]:g} m); write the unit of values in millimetres, "
+                f"e.g. {k}: {{value: {design[k]:g}, unit: mm}}")
+    return f"{msg}; check the design's dimensions (their units) against the workspace"
+
+
+def unreachable_design(config: Config, names=None, workspace: Workspace | None = None) -> str | None:
+    """The first named design (all when ``names`` is None) whose mechanism
+    reaches no point of W, or None (the numpy model's ``reachable``, cheap:
+    no index is computed)."""
+    ws = workspace_of(config) if workspace is None else workspace
+    for n in (list(names) if names else list(config.designs)):
+        if not np.any(build(config, n).reachable(ws.X)):
+            return n
+    return None
 
 
 def global_indices_error(config: Config, designs, workspace: Workspace | None = None) -> list[dict[str, float]]:

@@ -15,6 +15,7 @@ from conftest import PAPER as PAPER_YAML
 
 PAPER = str(PAPER_YAML)
 ROOT = PAPER_YAML.parents[1]
+SMALL_YAML = ROOT / "tests" / "data" / "p4s_small.yaml"
 P4S = get("p4s")
 BEFORE = dict(r_a=0.25, r_b=0.67, L=0.38, d=0.12, phi=np.radians(30.0))
 
@@ -162,3 +163,28 @@ def test_atlas_resolution_and_no_plots(tmp_path, capsys):
     assert len(rows) == 25
     assert sorted({float(r["x"]) for r in rows}) == pytest.approx([-0.05, -0.025, 0.0, 0.025, 0.05])
     assert not list(folder.glob("*.png"))
+
+
+def test_a_design_that_reaches_no_pose_is_an_error_with_a_unit_hint(capsys, edited_copy):
+    """r_a written as 250 without `unit: mm` is 250 m: the design reaches no
+    pose of W.  `evaluate` ends with exit 2 and one line (not a table of '-'
+    with reachable fraction 0 and exit 0); `validate-config` refuses the
+    default design the same way; the same file in mm is fine."""
+    tiny = ROOT / "tests" / "data" / "p4s_tiny.yaml"
+    m = edited_copy(tiny, {"r_a: {value: 0.25, bounds: [0.21, 0.29]}": "r_a: {value: 250, bounds: [180, 300]}"},
+                    "m.yaml")
+    for cmd in ("evaluate", "validate-config"):
+        rc, out, err = run_main(capsys, [cmd, str(m)])
+        assert rc == 2 and out == "", (cmd, out)
+        (line,) = err.strip().splitlines()
+        assert f"{m}: design_variables: no pose of W is reachable for design 'initial'; are the values in m?" in line
+        assert "unit: mm" in line
+    mm = edited_copy(tiny, {"r_a: {value: 0.25, bounds: [0.21, 0.29]}":
+                            "r_a: {value: 250, bounds: [210, 290], unit: mm}"}, "mm.yaml")
+    for cmd in ("evaluate", "validate-config"):
+        rc, out, err = run_main(capsys, [cmd, str(mm)])
+        assert rc == 0 and err == "", (cmd, err)
+    far = edited_copy(SMALL_YAML, {"z: 0.57": "z: 3.0"}, "far.yaml")     # in m, but W is out of reach
+    rc, out, err = run_main(capsys, ["evaluate", str(far), "--design", "after"])
+    assert rc == 2 and "designs.after: no pose of W is reachable for design 'after'" in err
+    assert "are the values in m" not in err

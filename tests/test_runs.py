@@ -259,7 +259,7 @@ def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
     weighted sum, but is still an objective of the Pareto front."""
     text = SMALL.read_text().replace(
         "optimizer: {population: 16, generations: 8,",
-        "optimizer: {weights: {isotropy: 0}, population: 10, generations: 3,")
+        "optimizer: {weights: {dynamic: 1, stiffness: 1, isotropy: 0}, population: 10, generations: 3,")
     cfg_path = tmp_path / "w0.yaml"
     cfg_path.write_text(text)
     res = start_run(load_config(cfg_path), seed=1, out=tmp_path / "runs")
@@ -267,3 +267,29 @@ def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
     assert "single_isotropy_min" not in res.stages
     pr = res.results["pareto"]["pareto_nsga2"]
     assert pr["normalization"]["terms"] == ["dynamic", "-stiffness", "isotropy"]
+
+
+@pytest.mark.slow
+def test_an_old_folder_with_the_removed_optimizer_keys_resumes_and_reports(tmp_path):
+    """optimizer.normalization and optimizer.min_transmission had no effect and
+    were removed: a new config holding them is refused with one line, but the
+    config.yaml of an earlier run folder holding them still resumes and reports."""
+    from optdesign.optimize.runner import config_of_folder
+    from optdesign.report_html.rundata import load_run
+
+    tiny = DATA / "p4s_tiny.yaml"
+    old = tiny.read_text().replace("optimizer: {", "optimizer: {normalization: sense, min_transmission: 0.2, ")
+    for key, value in (("normalization", "sense"), ("min_transmission", "0.2")):
+        text = tiny.read_text().replace("optimizer: {", f"optimizer: {{{key}: {value}, ")
+        with pytest.raises(Exception, match=rf"new\.yaml: optimizer\.{key}: this key was removed .*; delete it"):
+            parse_config(text, source="new.yaml")
+    cfg = load_config(tiny)
+    cfg.text = old                      # the folder keeps the text of an earlier version
+    with pytest.raises(Interrupted):
+        start_run(cfg, seed=7, out=tmp_path, name="old", stop_after=2)
+    folder = next(tmp_path.iterdir())
+    assert "min_transmission" in (folder / "config.yaml").read_text()
+    assert config_of_folder(folder).optimizer.weights == cfg.optimizer.weights
+    res = resume_run(folder)
+    assert res.results["status"] == "complete"
+    assert set(load_run(folder).results["global_indices"]) == {"dynamic", "stiffness"}

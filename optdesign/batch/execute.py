@@ -118,7 +118,7 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
             check_inside(out, folder.path)
         except OutsideRoot as exc:
             raise RunFolderError(str(exc)) from None
-        cfg = parse_config(task.config_text, source=task.source)
+        cfg = parse_config(task.config_text, source=task.source, run_folder=True)   # checked when planned
         if folder.path.exists():
             m = folder.read_manifest()
             if m.get("status") == "complete" and (folder.path / "results.json").exists():

@@ -93,7 +93,7 @@ def design_space_key(config_text: str) -> str | None:
     from ..config import ConfigError, parse_config
 
     try:
-        cfg = parse_config(config_text, source="config.yaml")
+        cfg = parse_config(config_text, source="config.yaml", run_folder=True)
     except (ConfigError, ValueError, TypeError):
         return None
     opt = cfg.optimizer
@@ -101,7 +101,7 @@ def design_space_key(config_text: str) -> str | None:
              "design_variables": {k: [dv.value, dv.bounds] for k, dv in cfg.design_variables.items()},
              "workspace": repr(cfg.workspace),
              "indices": {k: [s.kind, s.convention, sorted((s.options or {}).items())] for k, s in cfg.indices.items()},
-             "constraints": [opt.singularity_threshold, opt.stroke_limits, opt.min_transmission]}
+             "constraints": [opt.singularity_threshold, opt.stroke_limits]}
     text = json.dumps(space, sort_keys=True, default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 

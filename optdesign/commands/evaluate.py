@@ -50,11 +50,16 @@ def spread_rows(cfg, results: dict) -> list[list[str]]:
 def run(args) -> int:
     from ._common import design_names, open_config
     from ..tables import print_table
-    from ..evaluate import error_method, evaluate_named, workspace_of
+    from ..config import ConfigError
+    from ..evaluate import error_method, evaluate_named, unreachable_design, unreachable_message, workspace_of
 
     cfg = open_config(args.config)
     names = design_names(cfg, args.design)
     ws = workspace_of(cfg)
+    bad = unreachable_design(cfg, names, ws)
+    if bad is not None:   # every index would be '-': an error, not a table of dashes
+        key = f"designs.{bad}" if bad in (cfg.raw.get("designs") or {}) else "design_variables"
+        raise ConfigError(cfg.source, key, unreachable_message(cfg, bad))
     res = evaluate_named(cfg, names, ws)
     if args.json:
         out = {"config": cfg.source, "mechanism": cfg.mechanism, "workspace_points": ws.n,

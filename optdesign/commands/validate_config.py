@@ -12,7 +12,8 @@ def register(sub):
 
 def run(args) -> int:
     from ._common import open_config
-    from ..evaluate import workspace_of
+    from ..config import ConfigError
+    from ..evaluate import unreachable_design, unreachable_message, workspace_of
 
     from ..batch import is_batch_file, load_batch_file
 
@@ -24,6 +25,8 @@ def run(args) -> int:
             continue
         cfg = open_config(path)
         ws = workspace_of(cfg)
+        if "initial" in cfg.designs and unreachable_design(cfg, ["initial"], ws) is not None:
+            raise ConfigError(cfg.source, "design_variables", unreachable_message(cfg, "initial"))
         free = ", ".join(v.name for v in cfg.free_variables) or "none"
         print(f"{path}: ok ({cfg.mechanism}; {len(cfg.designs)} designs; free variables: {free}; "
               f"indices: {', '.join(cfg.indices)}; workspace {ws.n} points)")

@@ -43,14 +43,16 @@ def load_config(path: str | os.PathLike) -> Config:
     return cfg
 
 
-def parse_config(text: str, source: str = "<string>") -> Config:
-    """A validated Config from the text of a config file (see :func:`load_config`)."""
+def parse_config(text: str, source: str = "<string>", run_folder: bool = False) -> Config:
+    """A validated Config from the text of a config file (see :func:`load_config`);
+    ``run_folder``: the config.yaml of a run folder, whose keys removed since
+    (``optimizer.normalization``, ``optimizer.min_transmission``) are ignored."""
     if len(text) > yamlsafe.MAX_BYTES:
         raise ConfigError(source, "", f"a config of {len(text):,} characters; expected at most {yamlsafe.MAX_BYTES:,}")
     data = yamlsafe.load(text, source)
     if data is None:
         raise ConfigError(source, "", "empty file; expected a mapping with at least 'mechanism', 'design_variables', 'workspace' and 'indices'")
-    return from_mapping(data, source)
+    return from_mapping(data, source, run_folder=run_folder)
 
 
 def _mechanism(r: Reader, value: Any, label: Any = None):
@@ -74,7 +76,7 @@ def _mechanism(r: Reader, value: Any, label: Any = None):
     return mech_name, get(mech_name)
 
 
-def from_mapping(data: Any, source: str) -> Config:
+def from_mapping(data: Any, source: str, run_folder: bool = False) -> Config:
     """A validated Config from parsed YAML (a mapping, as ``yaml.safe_load`` gives)."""
     from ..indices import INDEX_KINDS
 
@@ -135,6 +137,12 @@ def from_mapping(data: Any, source: str) -> Config:
     _check_corners(r, mech_cls, dvs)
     if "initial" not in designs:
         designs = {"initial": {k: v.value for k, v in dvs.items()}, **designs}
+    check_physical = getattr(mech_cls, "check_physical", None)
+    if check_physical is not None:  # a described mechanism: masses, counts, centres, gravity per design
+        problem = check_physical(params, {**{f"design {k!r}": v for k, v in designs.items()},
+                                          **_corners(dvs)})
+        if problem:
+            r.fail(*problem)
     check_config = getattr(mech_cls, "check_config", None)
     if check_config is not None:  # a described mechanism: its expressions and legs with these designs
         problem = check_config(params, designs)
@@ -181,7 +189,7 @@ def from_mapping(data: Any, source: str) -> Config:
             opts["k"] = float(params.get("k", mech_cls.fixed_parameters["k"]))
         indices[iname] = IndexSpec(iname, kind, conv, sense, opts)
 
-    optimizer = optimizer_section(r, data.get("optimizer"), dvs, indices, mech_cls)
+    optimizer = optimizer_section(r, data.get("optimizer"), dvs, indices, mech_cls, run_folder=run_folder)
 
     reference: dict[str, dict[str, float]] = {}
     if data.get("reference") is not None:
@@ -276,6 +284,20 @@ def _name(r: Reader, value: Any, path: str) -> str:
 
 #: free variables beyond which the corners of the bounds are not all checked (2^12 designs)
 _MAX_CORNER_VARS = 12
+
+
+def _corners(dvs: dict) -> dict[str, dict[str, float]]:
+    """{"at the corner r_a = .., ..": design}: every corner of the bounds' box
+    (the other variables at their values; none beyond 12 free variables)."""
+    free = [v for v in dvs.values() if v.bounds is not None and v.bounds[1] > v.bounds[0]]
+    if not free or len(free) > _MAX_CORNER_VARS:
+        return {}
+    base = {k: v.value for k, v in dvs.items()}
+    out = {}
+    for corner in itertools.product(*(v.bounds for v in free)):
+        at = ", ".join(f"{v.name} = {_display(v, x)}" for v, x in zip(free, corner))
+        out[f"at the corner {at} of the bounds"] = {**base, **{v.name: x for v, x in zip(free, corner)}}
+    return out
 
 
 def _check_corners(r: Reader, mech_cls, dvs: dict) -> None:

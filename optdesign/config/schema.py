@@ -53,14 +53,12 @@ class OptimizerSpec:
     fitness_scaling: str = "rank"
     seed: int = 1
     weights: dict[str, float] = field(default_factory=dict)
-    normalization: str = "sense"  # or "paper_literal"
     pareto_algorithms: tuple[str, ...] = ("nsga2", "nsga3")
     pareto_population: int = 100
     pareto_generations: int = 100
     extra_objectives: tuple[str, ...] = ()
     singularity_threshold: float = 1e3
     stroke_limits: tuple[float, float] | None = None
-    min_transmission: float = 0.0
     checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
     prescan: int | None = None     # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none;
                                    # None: the smaller of 2048 and population x generations

@@ -7,7 +7,7 @@ from ..workspace import MAX_POINTS, WorkspaceSpec, point_count
 from .reader import UNITS, Reader, join, show, suggest, tname
 from .schema import OptimizerSpec
 
-__all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "SAMPLING"]
+__all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "REMOVED_OPT_KEYS", "SAMPLING"]
 
 WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
            "center", "unit", "scramblings", "tolerance", "max_points"}
@@ -27,9 +27,14 @@ _NOT_FOR = {
              "points_per_axis": "rqmc places 'points' Sobol points per scrambling"},
 }
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
-            "mutation_probability", "seed", "weights", "normalization", "pareto",
-            "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission", "prescan", "polish",
+            "mutation_probability", "seed", "weights", "pareto",
+            "extra_objectives", "singularity_threshold", "stroke_limits", "prescan", "polish",
             "checkpoint_interval"}
+#: keys of earlier versions that had no effect: refused in a new config, ignored in a run folder's
+REMOVED_OPT_KEYS = {
+    "normalization": "every term is normalized so that 0 is best, and the literal eq. 38 runs as its own stage",
+    "min_transmission": "it was never applied as a constraint",
+}
 
 
 def _workspace_unit(r: Reader, value: Any, axes: tuple[str, ...], mech_cls) -> str | None:
@@ -156,11 +161,19 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     return spec
 
 
-def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -> OptimizerSpec:
+def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
+                      run_folder: bool = False) -> OptimizerSpec:
+    """The optimizer settings; ``run_folder``: the config of an earlier run,
+    whose removed keys (:data:`REMOVED_OPT_KEYS`) are ignored, not refused."""
     path = "optimizer"
     if opt is None:
         return OptimizerSpec(weights={k: 1.0 for k in indices})
     opt = r.mapping(opt, path)
+    for key, why in REMOVED_OPT_KEYS.items():
+        if key in opt:
+            if not run_folder:
+                r.fail(f"{path}.{key}", f"this key was removed ({why}); delete it")
+            opt = {k: v for k, v in opt.items() if k != key}
     r.only(opt, path, OPT_KEYS)
     kw: dict[str, Any] = {}
     if "algorithm" in opt:
@@ -187,11 +200,13 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
             if k not in indices:
                 r.fail(join(f"{path}.weights", k), f"unknown index{suggest(k, indices)}; expected one of {', '.join(indices)}")
             weights[k] = r.number(v, f"{path}.weights.{k}", nonneg=True)
+        left = [k for k in indices if k not in wm]
+        if left:
+            r.fail(f"{path}.weights", f"no weight for {', '.join(left)}; give every index a weight "
+                                      f"(give 0 to leave one out)")
         if sum(weights.values()) <= 0:
             r.fail(f"{path}.weights", "expected at least one positive weight")
     kw["weights"] = weights
-    if "normalization" in opt:
-        kw["normalization"] = r.string(opt["normalization"], f"{path}.normalization", choices={"sense", "paper_literal"})
     if "pareto" in opt and opt["pareto"] is not None:
         pm = r.mapping(opt["pareto"], f"{path}.pareto")
         r.only(pm, f"{path}.pareto", {"algorithms", "population", "generations"})
@@ -213,11 +228,6 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         kw["singularity_threshold"] = r.number(opt["singularity_threshold"], f"{path}.singularity_threshold", positive=True)
     if "stroke_limits" in opt:
         kw["stroke_limits"] = r.pair(opt["stroke_limits"], f"{path}.stroke_limits")
-    if "min_transmission" in opt:
-        x = r.number(opt["min_transmission"], f"{path}.min_transmission", nonneg=True)
-        if x >= 1:
-            r.fail(f"{path}.min_transmission", f"expected a value in [0, 1), got {x:g}")
-        kw["min_transmission"] = x
     if "prescan" in opt:
         kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
     if "polish" in opt:

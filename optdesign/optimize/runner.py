@@ -67,7 +67,7 @@ def _resume_locked(folder: RunFolder, progress, stop_after, jobs, stop) -> Pipel
             raise RunFolderError(f"{folder.path / 'results.json'}: not the results of a run")
         return PipelineResult(folder, res)
     folder.verify_inputs(write=False)   # before the config is parsed: it must be the one run
-    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"))
+    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"), run_folder=True)
     cfg.name = m.get("config_name") or m.get("name") or cfg.name
     return run_pipeline(cfg, folder, m["seed"], progress, pareto=m["pareto"], stop_after=stop_after,
                         jobs=jobs, stop=stop)
@@ -76,7 +76,7 @@ def _resume_locked(folder: RunFolder, progress, stop_after, jobs, stop) -> Pipel
 def config_of_folder(path: str | os.PathLike) -> Config:
     """The config a run folder was run with (its config.yaml, the safe loader)."""
     folder = RunFolder(path)
-    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"))
+    cfg = parse_config(folder.config_text(), source=str(folder.path / "config.yaml"), run_folder=True)
     name = folder.read_manifest(strict=False).get("config_name")
     if isinstance(name, str) and name:
         cfg.name = name

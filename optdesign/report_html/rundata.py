@@ -147,7 +147,7 @@ def load_run(path) -> RunData:
         results = _json_object(read("results.json", want("results_sha256"), "the run completed", MAX_JSON), res_path)
     except FileNotFoundError:
         raise RunFolderError(f"{root}: not a finished run (no results.json)") from None
-    cfg = parse_config(text, source=str(cfg_path))
+    cfg = parse_config(text, source=str(cfg_path), run_folder=True)
     name = m.get("config_name") or m.get("name")
     if isinstance(name, str) and name:
         cfg.name = name

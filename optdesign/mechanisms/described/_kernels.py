@@ -71,8 +71,8 @@ COL0 = 7            # COL0 + a: squared norm of column a of J (axis stiffness)
 NVAL = 13
 #: layout of the per-leg constants L (D, n, NL)
 LA, LP, LU, LR0, LS0 = 0, 3, 6, 9, 12
-LLA, LLR, LMACT, LMROD, LIROD, LFROD, LM1, LE1, LM2, LE2, LI12 = range(15, 26)
-NL = 26
+LLA, LLR, LMACT, LMROD, LIROD, LFROD, LM1, LE1, LM2, LE2, LI12, LSG = range(15, 27)
+NL = 27
 #: layout of the per-design constants F (D, NF)
 FCEN, FFIX, FMP, FIP, FCOM = 0, 3, 6, 7, 16
 NF = 19
@@ -379,6 +379,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
     ir = L[d, i, LIROD]
     f = L[d, i, LFROD]
     ma = L[d, i, LMACT]
+    sg = L[d, i, LSG]          # the root settled per design (Constants.sign)
     P0 = L[d, i, LP]
     P1 = L[d, i, LP + 1]
     P2 = L[d, i, LP + 2]
@@ -398,7 +399,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
         Qc = w0 * S00 + w1 * S01 + w2 * S02
         Cc = (ww + La * La - Lr * Lr) / (2.0 * La)
         h2 = Pc * Pc + Qc * Qc - Cc * Cc
-        closes = h2 >= 0.0
+        closes = (h2 >= 0.0) and (sg == sg)       # sg NaN: outer / inner not defined for this design
         V[VOK * BLK + j] = V[VOK * BLK + j] if closes else 0.0
         h = math.sqrt(h2 if closes else 0.0)
         phi0 = math.atan2(Qc, Pc)
@@ -409,14 +410,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn, cspec):
         spp = math.sin(qp)
         cmm = math.cos(qm)
         smm = math.sin(qm)
-        tp0 = A0 + La * (cpp * R00 + spp * S00)
-        tp1 = A1 + La * (cpp * R01 + spp * S01)
-        tp2 = A2 + La * (cpp * R02 + spp * S02)
-        tm0 = A0 + La * (cmm * R00 + smm * S00)
-        tm1 = A1 + La * (cmm * R01 + smm * S01)
-        tm2 = A2 + La * (cmm * R02 + smm * S02)
-        far = tp0 * tp0 + tp1 * tp1 + tp2 * tp2 > tm0 * tm0 + tm1 * tm1 + tm2 * tm2
-        plus = (br == 1) | ((br == 2) & far) | ((br == 3) & (not far))
+        plus = sg > 0.0
         cq = cpp if plus else cmm
         sq = spp if plus else smm
         c0 = cq * R00 + sq * S00

@@ -9,6 +9,8 @@ parameters:
   [-1, 1], overflow);
 * directions and axes are not zero, a crank's reference is not parallel to
   its axis, rod and crank lengths are positive;
+* a revolute leg's ``outer`` / ``inner`` is defined at the home pose (its two
+  crank-tip solutions are not equally far from the base origin);
 * every leg closes at the home pose (``pose.home``);
 * the Jacobian is not singular at the home pose and at every one of a few
   poses around it (a structurally singular description: coincident legs,
@@ -94,6 +96,12 @@ def _geometry(cls, env, dname):
                 return f"{p}.reference", f"is parallel to the axis (design {dname!r}, leg {leg.actuator})"
             if not C.La[i] > 0:
                 return f"{p}.crank", f"expected a positive crank length, got {float(C.La[i]):g} m (design {dname!r})"
+        if leg.kind == "revolute" and leg.branch in ("outer", "inner") and not np.isfinite(C.sign[i]):
+            return f"{p}.branch", (f"{leg.branch!r} is not defined for leg {leg.actuator} (design {dname!r}): at the "
+                                   "home pose its two crank-tip solutions are equally far from the base origin "
+                                   "(k . (w x A) = 0, e.g. a motor axis through the base origin, as a radial "
+                                   "one), so round-off would pick the solution per leg and pose; give branch: "
+                                   "plus or minus (q = atan2(Q, P) +- delta) for this leg")
         if leg.rod is not None and not C.Lr[i] > 0:
             return f"{p}.rod", f"expected a positive rod length, got {float(C.Lr[i]):g} m (design {dname!r})"
         if leg.across is not None and not np.all(np.isfinite(C.across[i])):

@@ -127,6 +127,7 @@ def pack(mech):
     L[:, :, K.LM2] = np.where(kind == 2, B["upper_mass"], 0.0)
     L[:, :, K.LE2] = B["upper_centre"]
     L[:, :, K.LI12] = np.where(kind == 2, B["lower_inertia"] + B["upper_inertia"], 0.0)
+    L[:, :, K.LSG] = per_design(C.sign, (n,))
     F = np.empty((D, K.NF))
     F[:, K.FCEN:K.FCEN + 3] = per_design(C.centre, (3,))
     F[:, K.FFIX:K.FFIX + 3] = per_design(C.fixed, (3,))

@@ -16,7 +16,7 @@ import numpy as np
 from .expr import evaluate
 from .schema import Description
 
-__all__ = ["Constants", "constants", "KIND_CODES", "BRANCH_CODES", "BODY_KEYS"]
+__all__ = ["Constants", "constants", "KIND_CODES", "BRANCH_CODES", "BODY_KEYS", "SIGMA_TOL", "home_sigma"]
 
 KIND_CODES = {"prismatic": 0, "revolute": 1, "strut": 2}
 BRANCH_CODES = {None: 0, "minus": 0, "plus": 1, "outer": 2, "inner": 3}
@@ -47,6 +47,53 @@ class Constants:
     com: np.ndarray              # S + (3,)
     g: np.ndarray                # S
     body: dict                   # BODY_KEYS -> S + (n,)
+    #: revolute legs: the root taken, +1 (q = atan2(Q, P) + delta) or -1 (- delta),
+    #: settled per design (``outer`` / ``inner`` at the home pose, see :func:`home_sigma`);
+    #: NaN where ``outer`` / ``inner`` is not defined (the design reaches no pose); 0 for other legs
+    sign: np.ndarray = None      # S + (n,)
+
+
+#: |sigma| at most this times |w| |A| at the home pose: outer and inner are not defined
+SIGMA_TOL = 1e-9
+
+
+def home_sigma(desc: Description, C: "Constants") -> tuple[np.ndarray, np.ndarray]:
+    """(sigma, scale), each S + (n,): ``sigma = k . (w x A)`` at the home pose
+    (k the motor axis, A the base point, w = b - A), whose sign tells which
+    crank-tip root lies farther from the base origin (the ``+ delta`` root
+    where sigma > 0: |tip+|^2 - |tip-|^2 = 4 L_a sin(delta) sigma / |w_perp|),
+    and ``scale = |w| |A|``."""
+    from .poses import frames
+
+    home = np.asarray(desc.pose.home, dtype=float)[None]
+    fr = frames(desc.pose, home, C.centre, C.fixed)
+    r = np.einsum("...jk,...ik->...ij", fr.R, C.P)
+    w = fr.origin[..., None, :] + r - C.A
+    w = np.broadcast_to(w, np.broadcast_shapes(w.shape, C.A.shape))
+    sigma = np.sum(C.U * np.cross(w, np.broadcast_to(C.A, w.shape)), axis=-1)
+    scale = np.sqrt(np.sum(w * w, axis=-1) * np.sum(C.A * C.A, axis=-1))
+    n = len(C.kind)
+    return sigma.reshape(C.shape + (n,)), np.broadcast_to(scale, sigma.shape).reshape(C.shape + (n,))
+
+
+def _signs(desc: Description, C: "Constants") -> np.ndarray:
+    """The root each revolute leg takes, per design (see ``Constants.sign``):
+    ``plus``/``minus`` as written; ``outer``/``inner`` settled once per design at
+    the home pose by the sign of sigma, so that the solution is continuous over
+    the workspace and independent of round-off."""
+    n = len(C.kind)
+    out = np.zeros(C.shape + (n,))
+    if not np.any(C.kind == 1):
+        return out
+    sigma, scale = home_sigma(desc, C)
+    settled = np.where(np.abs(sigma) > SIGMA_TOL * scale, np.sign(sigma), np.nan)
+    for i in range(n):
+        if C.kind[i] != 1:
+            continue
+        br = C.branch[i]
+        out[..., i] = {0: -1.0, 1: 1.0}.get(int(br), 0.0) if br in (0, 1) else (
+            settled[..., i] if br == 2 else -settled[..., i])
+    return out
 
 
 def _bc(v, shape) -> np.ndarray:
@@ -138,4 +185,6 @@ def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
                 vals.append(0.0)
         body[key] = per_leg(vals)
     g = _bc(ev(desc.gravity), shape)
-    return Constants(shape, kind, branch, A, P, U, R0, S0, La, Lr, AC, centre, fixed, mp, Ip, com, g, body)
+    C = Constants(shape, kind, branch, A, P, U, R0, S0, La, Lr, AC, centre, fixed, mp, Ip, com, g, body)
+    C.sign = _signs(desc, C)
+    return C

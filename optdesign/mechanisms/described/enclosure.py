@@ -22,11 +22,11 @@ mechanism as computed), over K boxes at once:
   description's convention (``G`` on the pose's twist components, or ``G S(x)``
   with the Euler-rate columns of S).
 
-The branches ``outer`` / ``inner`` compare the two roots' distances from the
-base origin; the difference has the sign of ``u.b`` (prismatic) and of
-``P (A.s) - Q (A.r)`` (revolute) where the leg closes, so a box is proved only
-where that sign is the same over the whole box (else its bound is inf and it
-is split).  A leg whose actuated point the float model puts outside the
+The prismatic branches ``outer`` / ``inner`` compare the two roots' distances
+from the base origin; the difference has the sign of ``u.b`` where the leg
+closes, so a box is proved only where that sign is the same over the whole box
+(else its bound is inf and it is split).  A revolute leg's root is settled once
+per design at the home pose (``Constants.sign``), the same over every box.  A leg whose actuated point the float model puts outside the
 enclosure at the box's midpoint (a branch rule this module does not know)
 leaves the box unproved.
 """
@@ -171,13 +171,10 @@ class DescribedEnclosure:
                 h2 = rho2 - Cc.sqr()
                 reach = np.minimum(reach, h2.lo)
                 h = h2.sqrt()
-                if br in (2, 3):
-                    AS, AR = float(np.dot(C.A[i], C.S0[i])), float(np.dot(C.A[i], C.R0[i]))
-                    s = _sign(Pc * AS - Qc * AR)
-                    plus = s > 0 if br == 2 else s < 0
-                    ok &= s != 0
-                else:
-                    plus = np.full(K, br == 1)
+                sgn = float(C.sign[i])          # the root settled for the design at home (Constants.sign)
+                if not np.isfinite(sgn):
+                    ok &= False
+                plus = np.full(K, sgn > 0)
                 sg = np.where(plus, 1.0, -1.0)
                 cq = (Pc * Cc - Qc * h * sg) / rho2
                 sq = (Qc * Cc + Pc * h * sg) / rho2

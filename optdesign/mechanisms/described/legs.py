@@ -15,9 +15,15 @@ point ``b(x) = o(x) + R(x) P`` (``P`` in the platform frame); with ``w = b - A``
   ``f = |w|^2 - 2 L_a (cos q w.r + sin q w.s) + L_a^2 - l^2 = 0``, i.e.
   ``P cos q + Q sin q = C`` with ``P = w.r``, ``Q = w.s``,
   ``C = (|w|^2 + L_a^2 - l^2) / (2 L_a)``:
-  ``q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)`` (``outer``: the root
-  whose crank tip lies farther from the base origin, the Delta robot's
-  elbow-out; ``inner``; ``plus``; ``minus``), in (-pi, pi];
+  ``q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)`` (``plus``; ``minus``;
+  ``outer``: the root whose crank tip lies farther from the base origin at the
+  home pose, the Delta robot's elbow-out, kept over the whole workspace;
+  ``inner``), in (-pi, pi].  ``outer`` / ``inner`` are settled once per design
+  by the sign of ``sigma = k.(w x A)`` at home (the farther tip is the ``+``
+  root where sigma > 0), so the solution is continuous over W and never left
+  to round-off; a design where sigma is 0 at home (motor axes through the
+  base origin, e.g. radial axes of a 6-RUS) has no outer root and is refused
+  (:mod:`.checks`), or reaches nothing in an evaluation;
 * ``strut``: the actuated length itself, ``f = |w|^2 - q^2 = 0``, ``q = |w|``.
 
 A pose is reachable when every leg closes; otherwise every actuator value of
@@ -111,13 +117,11 @@ def leg_state(C: Constants, spec, X: np.ndarray, fr: Frames | None = None) -> di
             qm = _wrap(phi0 - delta)
             cp_, sp_ = np.cos(qp), np.sin(qp)
             cm_, sm_ = np.cos(qm), np.sin(qm)
-            plus = br == 1
-            if np.any(br >= 2):
-                tp = C.A + La[..., None] * (cp_[..., None] * C.R0 + sp_[..., None] * C.S0)
-                tm = C.A + La[..., None] * (cm_[..., None] * C.R0 + sm_[..., None] * C.S0)
-                far = _dot(tp, tp) > _dot(tm, tm)
-                plus = np.where(br == 2, far, np.where(br == 3, ~far, plus))
+            # the root settled per design (Constants.sign: outer / inner at the home pose)
+            sg = C.sign
+            plus = sg > 0
             qq = np.where(plus, qp, qm)
+            qq = np.where(np.isnan(sg), np.nan, qq)      # outer / inner not defined: no pose reached
             cq = np.where(plus, cp_, cm_)
             sq = np.where(plus, sp_, sm_)
             ch = cq[..., None] * C.R0 + sq[..., None] * C.S0

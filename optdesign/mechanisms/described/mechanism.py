@@ -292,7 +292,35 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return global_statistics(self, requests, X, want_max_cond)
 
+    def invalid_designs(self) -> np.ndarray:
+        """(D,) or (): designs whose physical quantities are impossible (a
+        negative mass or inertia, a rod count that is not a whole number from
+        1 to 100, a centre outside [0, 1], gravity outside [0, 1000] m/s^2;
+        :mod:`.physical`): an evaluation makes them infeasible."""
+        from .physical import invalid
+
+        C = self.constants
+        return invalid(self.description, C).reshape(C.shape[:1]) if C.shape else invalid(self.description, C)
+
     # ------------------------------------------------------------------ config checks
+    @classmethod
+    def check_physical(cls, parameters: Mapping[str, float], designs: Mapping[str, Mapping[str, float]]):
+        """(key path, message) of the first design (named, or a corner of the
+        bounds) with an impossible physical quantity (:mod:`.physical`), else None."""
+        from .physical import first_problem
+
+        fixed = dict(cls.fixed_parameters)
+        fixed.update({k: v for k, v in parameters.items() if k in fixed})
+        for dname, design in designs.items():
+            env = {**cls.design_defaults, **fixed, **{k: v for k, v in design.items() if k in cls.design_parameters}}
+            env = {k: v for k, v in env.items() if k in cls.design_parameters or k in cls.fixed_parameters}
+            for k in cls.design_parameters:
+                env.setdefault(k, float("nan"))
+            problem = first_problem(cls.description, constants(cls.description, env))
+            if problem:
+                return problem[0], f"{problem[1]} ({dname})"
+        return None
+
     @classmethod
     def check_config(cls, parameters: Mapping[str, float], designs: Mapping[str, Mapping[str, float]]):
         """(key path, message) of the first problem of the description with the

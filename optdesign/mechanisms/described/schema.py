@@ -155,6 +155,9 @@ def _params(raw: Any, path: str) -> tuple[ParamDecl, ...]:
         default = spec.get("default")
         if default is not None:
             default = _number(default, f"{p}.default")
+            if kind in ("mass", "inertia", "acceleration") and default < 0:
+                unit = {"mass": "kg", "inertia": "kg m^2", "acceleration": "m/s^2"}[kind]
+                _fail(f"{p}.default", f"expected a {kind} >= 0 {unit}, got {default:g}")
         elif not design:
             _fail(f"{p}.default", "a fixed parameter (design: false) needs a default")
         doc = spec.get("doc", "")
