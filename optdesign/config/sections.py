@@ -24,7 +24,7 @@ _NOT_FOR = {
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "normalization", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission", "prescan", "polish",
-            "checkpoint_interval"}
+            "checkpoint_interval", "worst_case", "constraint_margin"}
 
 
 def _workspace_unit(r: Reader, value: Any, axes: tuple[str, ...], mech_cls) -> str | None:
@@ -201,6 +201,13 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         if x >= 1:
             r.fail(f"{path}.min_transmission", f"expected a value in [0, 1), got {x:g}")
         kw["min_transmission"] = x
+    if "worst_case" in opt:
+        kw["worst_case"] = r.boolean(opt["worst_case"], f"{path}.worst_case")
+    if "constraint_margin" in opt:
+        x = r.number(opt["constraint_margin"], f"{path}.constraint_margin", nonneg=True)
+        if x >= 0.5:
+            r.fail(f"{path}.constraint_margin", f"expected a fraction in [0, 0.5), got {x:g}")
+        kw["constraint_margin"] = x
     if "prescan" in opt:
         kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
     if "polish" in opt:
