@@ -54,11 +54,11 @@ class Derivatives:
     ``fd_error[name]`` (D, n): |g(h) - g(2h)| / 3 on the fd route.
 
     The smooth constraints: on the AD route ``singularity`` is
-    ``log(cond(x_j) / threshold)`` at every workspace point j (the same
-    feasible set as the Evaluator's ``max_W cond / threshold - 1``, without
+    ``log(cond(x_j) / limit)`` at every workspace point j (the same
+    feasible set as the Evaluator's sampled ``max_W cond / limit - 1``, without
     the kink of the maximum, and no steeper than cond itself where it grows
     without bound near a singularity) and ``stroke_low`` / ``stroke_high`` are
-    ``(lo - q) / (hi - lo)`` and ``(q - hi) / (hi - lo)`` at every point and
+    ``(lo + pad - q) / (hi - lo)`` and ``(q - hi + pad) / (hi - lo)`` (pad: the margin times hi - lo) at every point and
     actuator; an unreachable point counts as violated by 1.  On the fd route
     they are the Evaluator's own (one value each, the maximum over W)."""
 
@@ -327,15 +327,16 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     name = evaluator._cond if evaluator._cond is not None else _COND
     ok = reach & np.isfinite(local[name])
     with np.errstate(all="ignore"):
-        cons = {"singularity": np.where(ok, np.log(local[name] / evaluator.threshold), 1.0)}
+        cons = {"singularity": np.where(ok, np.log(local[name] / getattr(evaluator, "limit", evaluator.threshold)), 1.0)}
         cgrads = {"singularity": np.where(ok[..., None], local_grads[name] / local[name][..., None], 0.0)}
     if evaluator.stroke_limits is not None:
         lo, hi = evaluator.stroke_limits
         D, N, a = Q.shape
         okq = np.broadcast_to(reach[..., None], Q.shape)
         span = hi - lo
-        cons["stroke_low"] = np.where(okq, (lo - Q) / span, 1.0).reshape(D, N * a)
-        cons["stroke_high"] = np.where(okq, (Q - hi) / span, 1.0).reshape(D, N * a)
+        pad = getattr(evaluator, "margin", 0.0) * span     # the Evaluator's limits, narrowed by its margin
+        cons["stroke_low"] = np.where(okq, (lo + pad - Q) / span, 1.0).reshape(D, N * a)
+        cons["stroke_high"] = np.where(okq, (Q - hi + pad) / span, 1.0).reshape(D, N * a)
         dq = np.where(okq[..., None], dQ, 0.0)
         cgrads["stroke_low"] = (-dq / span).reshape(D, N * a, -1)
         cgrads["stroke_high"] = (dq / span).reshape(D, N * a, -1)
