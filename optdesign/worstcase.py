@@ -10,19 +10,21 @@ quantity over W by a continuous search:
    different hills), are the starting poses;
 2. from each, a projected gradient ascent over the free pose axes inside W's
    bounds (a box: clipped to it; a cylinder: projected onto its disc),
-   vectorized over every (design, start) pair at once: central differences
-   (forward) of the quantity in W's unit coordinates, a step along the normalized
-   gradient that doubles when it gains and halves when it does not, until the
-   step falls below ``tol`` (unit coordinates) or ``iterations`` are spent;
+   vectorized over every (design, start) pair at once: forward differences
+   of the quantity in W's unit coordinates (evaluated with each trial pose,
+   in one call), a step along the normalized gradient that doubles when it
+   gains and halves when it does not, until the step falls below ``tol``
+   (unit coordinates) or ``iterations`` are spent;
 3. a pair stops early once its value passes ``stop`` (the design is
    infeasible by a clear margin: its value is then a lower bound of the
    maximum, enough to reject it) or is not finite (an unreachable pose or an
    exact singularity: a violation).
 
-The quantity is a callable ``f(index, X) -> (M,)``: the value at pose X[m]
-(SI, (M, dof)) of design ``index[m]``, larger is worse, ``inf`` where the pose
-is not reachable.  :func:`local_functions` builds the conditioning and stroke
-quantities of a mechanism class for a population (the Jacobian from
+The quantity is a factory ``make(index)`` of a callable ``f(X) -> (K, M)``:
+the value at poses X[:, m] (SI, (K, M, dof)) of design ``index[m]``, larger is
+worse, ``inf`` where the pose is not reachable (one mechanism instance of the
+M starts' designs serves the whole search).  :func:`local_functions` builds
+the conditioning and stroke quantities of a mechanism class for a population (the Jacobian from
 ``Mechanism.index_matrices`` through :func:`optdesign.indices.local_index`,
 the same convention as the sampled index).  The answer of :func:`maximize`
 is never below the samples' maximum.
@@ -104,19 +106,24 @@ def _project(u: np.ndarray, reg: dict) -> np.ndarray:
     return u
 
 
-def maximize(f: Callable[[np.ndarray, np.ndarray], np.ndarray], ws: Workspace, sampled: np.ndarray,
+def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
              starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
              active: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(max over W (D,), its pose (D, dof) SI) of the quantity ``f`` for D
+    """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
     designs, whose values at the workspace points ``ws.X`` are ``sampled``
-    (D, N) (inf where not reachable, NaN taken as inf).  ``active`` (D,)
-    bool: the designs to search (the others keep their sampled maximum)."""
+    (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
+    (index (M,): the design of each start) returns the quantity
+    ``f(X) -> (K, M)`` at poses X (K, M, dof) (SI) of those designs (see
+    :func:`local_functions`).  ``active`` (D,) bool: the designs to search
+    (the others keep their sampled maximum).  Each ascent step costs one call
+    of ``f`` on 1 + f poses per start: the trial pose and its forward
+    differences (kept when the trial gains)."""
     sampled = np.where(np.isnan(sampled), np.inf, sampled)
     D, N = sampled.shape
     X0 = ws.X
-    best_i = np.argmax(sampled, axis=1)
-    best = sampled[np.arange(D), best_i]
-    pose = X0[best_i].copy()
+    best_i = np.argmax(sampled, axis=1) if N else np.zeros(D, int)
+    best = sampled[np.arange(D), best_i] if N else np.full(D, -np.inf)
+    pose = X0[best_i].copy() if N else np.zeros((D, len(ws.names)))
     reg = region(ws)
     if reg["axes"].size == 0 or N == 0:
         return best, pose
@@ -126,61 +133,69 @@ def maximize(f: Callable[[np.ndarray, np.ndarray], np.ndarray], ws: Workspace, s
     d_idx = np.flatnonzero(todo)
     if d_idx.size == 0:
         return best, pose
-    k = min(starts, N)
-    worst = _diverse_worst(sampled[d_idx], (X0[:, reg["axes"]] - reg["lo"]) / (reg["hi"] - reg["lo"]), k)
-    design = np.repeat(d_idx, k)                       # (M,) the design of each start
-    start_pts = worst.reshape(-1)
     axes, lo, hi = reg["axes"], reg["lo"], reg["hi"]
     width = hi - lo
+    k = min(starts, N)
+    worst = _diverse_worst(sampled[d_idx], (X0[:, axes] - lo) / width, k)
+    design = np.repeat(d_idx, k)                       # (M,) the design of each start
+    start_pts = worst.reshape(-1)
+    cache = {}
     base = X0[start_pts].copy()                        # (M, dof) the fixed axes stay
     u = (base[:, axes] - lo) / width
     val = sampled[design, start_pts].copy()
     n_free = axes.size
     step = np.full(design.size, 0.5 * max(N, 2) ** (-1.0 / n_free))
+    eye = np.eye(n_free) * H
 
-    def at(uu, rows):
-        X = base[rows].copy()
-        X[:, axes] = lo + uu * width
+    def probe(uu, rows):
+        """The quantity (1 + f, M) at uu (M, f) and at its forward neighbours
+        (backward at an upper bound), evaluated for the starts ``rows`` (M,)
+        bool only (-inf elsewhere); (points (1 + f, M, f), values, gradient (M, f))."""
+        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
+        P = np.stack([_project(q, reg) for q in nb])
+        v = np.full(P.shape[:2], -np.inf)
+        r = np.flatnonzero(rows)
+        if r.size:
+            key = r.tobytes()
+            if key not in cache:            # one mechanism of the live starts' designs, until the set shrinks
+                cache.clear()
+                cache[key] = make(design[r])
+            X = np.broadcast_to(base[r], (P.shape[0], r.size) + base.shape[1:]).copy()
+            X[..., axes] = lo + P[:, r] * width
+            with np.errstate(all="ignore"):
+                vr = np.asarray(cache[key](X), float)
+            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
         with np.errstate(all="ignore"):
-            v = np.asarray(f(design[rows], X), float)
-        return np.where(np.isnan(v), np.inf, v)
+            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
+        return P, v, np.where(np.isfinite(g), g, 0.0)
+
+    def settle(P, v, rows):
+        """Starts whose probe met a pose past the stop (or not finite) take it and end."""
+        vmax = v.max(axis=0)
+        hit = rows & ~(vmax < stop) & (vmax > val)
+        if hit.any():
+            jj = np.argmax(v, axis=0)
+            h = np.flatnonzero(hit)
+            u[h] = P[jj[h], h]
+            val[h] = vmax[h]
+        return hit
 
     live = np.isfinite(val) & (val < stop)
+    P, v, g = probe(u, live)
+    live &= ~settle(P, v, live)
     for _ in range(iterations):
-        rows = np.flatnonzero(live)
-        if rows.size == 0:
-            break
-        ur = u[rows]
-        # forward differences (backward at an upper bound), one evaluation of every live start per axis
-        pts = []
-        for j in range(n_free):
-            e = np.zeros(n_free)
-            e[j] = H
-            pts.append(np.where(ur[:, j:j + 1] + H <= 1.0, ur + e, ur - e))
-        vals = at(_project(np.concatenate(pts), reg), np.tile(rows, n_free)).reshape(n_free, rows.size)
-        g = np.stack([(vals[j] - val[rows]) / (pts[j][:, j] - ur[:, j]) for j in range(n_free)], axis=1)
-        # a neighbour past the stop or not finite is the answer (a violation at that pose)
-        vmax = vals.max(axis=0)
-        jump = ~(vmax < stop) & (vmax > val[rows])
-        if jump.any():
-            j_of = np.argmax(vals, axis=0)
-            for r_, jj in zip(np.flatnonzero(jump), j_of[jump]):
-                u[rows[r_]] = pts[jj][r_]
-                val[rows[r_]] = vmax[r_]
-        g = np.where(np.isfinite(g), g, 0.0)
         norm = np.sqrt(np.sum(g * g, axis=1))
-        moving = ~jump & (norm > 0)
-        rm = rows[moving]
-        if rm.size:
-            d = g[moving] / norm[moving, None]
-            trial = _project(u[rm] + step[rm, None] * d, reg)
-            vt = at(trial, rm)
-            gain = vt > val[rm]
-            u[rm[gain]] = trial[gain]
-            val[rm[gain]] = vt[gain]
-            step[rm] = np.where(gain, np.minimum(step[rm] * 2.0, 0.5), step[rm] * 0.5)
+        live &= norm > 0                                # a flat point (zero gradient): stationary
+        if not live.any():
+            break
+        d = g / np.maximum(norm, 1e-300)[:, None]
+        trial = _project(u + step[:, None] * d, reg)
+        P, v, gt = probe(trial, live)
+        gain = live & (v[0] > val)
+        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
+        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
+        live &= ~settle(P, v, live)         # a probed pose past the stop, gained or not
         live &= np.isfinite(val) & (val < stop) & (step >= tol)
-        live[rows[~moving & ~jump]] = False             # a flat point (zero gradient): a stationary pose
     # the best start of each design
     found = np.full(D, -np.inf)
     np.maximum.at(found, design, val)
@@ -196,35 +211,42 @@ def maximize(f: Callable[[np.ndarray, np.ndarray], np.ndarray], ws: Workspace, s
 
 def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray],
                     kind: str = "isotropy", convention: str | None = None, stroke: bool = False) -> dict:
-    """The local quantities of a population for :func:`maximize`:
-    ``{"cond": f}`` (the condition number of the Jacobian by ``convention``,
-    inf where the pose is not reachable) and, with ``stroke``, ``"q_max"``
-    and ``"q_min_neg"`` (the largest actuator value and minus the smallest,
-    inf where not reachable).  ``designs`` maps parameters to arrays (D,)."""
+    """The local quantities of a population for :func:`maximize`, each a
+    factory ``make(index) -> f(X)`` (one mechanism of the designs ``index``
+    (M,), poses X (K, M, dof) -> (K, M)): ``"cond"`` (the condition number of
+    the Jacobian by ``convention``, inf where the pose is not reachable) and,
+    with ``stroke``, ``"q_max"`` and ``"q_min_neg"`` (the largest actuator
+    value and minus the smallest, inf where not reachable).  ``designs`` maps
+    parameters to arrays (D,)."""
     designs = {k: np.asarray(v, float) for k, v in designs.items()}
 
     def mech_of(index):
         return mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
 
-    def cond(index, X):
+    def cond(index):
         m = mech_of(index)
-        with np.errstate(all="ignore"):
-            reach = np.asarray(m.reachable(X), bool)
-            J = m.index_matrices(X, {"J"})["J"]
-            c = np.asarray(local_index(kind, J=J, M=None, convention=convention, options={}), float)
-        return np.where(reach & np.isfinite(c), c, np.inf)
+
+        def f(X):
+            with np.errstate(all="ignore"):
+                reach = np.asarray(m.reachable(X), bool)
+                J = m.index_matrices(X, {"J"})["J"]
+                c = np.asarray(local_index(kind, J=J, M=None, convention=convention, options={}), float)
+            return np.where(reach & np.isfinite(c), c, np.inf)
+        return f
 
     out = {"cond": cond}
     if stroke:
-        def q(index, X, sign):
+        def q(index, sign):
             m = mech_of(index)
-            with np.errstate(all="ignore"):
-                reach = np.asarray(m.reachable(X), bool)
-                Q = np.asarray(m.inverse(X), float) * sign
-                v = np.max(Q, axis=-1)
-            return np.where(reach & np.isfinite(v), v, np.inf)
-        out["q_max"] = lambda index, X: q(index, X, 1.0)
-        out["q_min_neg"] = lambda index, X: q(index, X, -1.0)
+
+            def f(X):
+                with np.errstate(all="ignore"):
+                    reach = np.asarray(m.reachable(X), bool)
+                    v = np.max(np.asarray(m.inverse(X), float) * sign, axis=-1)
+                return np.where(reach & np.isfinite(v), v, np.inf)
+            return f
+        out["q_max"] = lambda index: q(index, 1.0)
+        out["q_min_neg"] = lambda index: q(index, -1.0)
     return out
 
 

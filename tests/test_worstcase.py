@@ -63,7 +63,7 @@ def test_found_maximum_matches_a_dense_grid(path):
         dense = _dense(ev, X[i])
         assert found[i] >= dense * (1 - 1e-4)        # at least what the dense grid sees
         assert found[i] <= dense * (1 + 1e-3)        # and no more than W holds near it
-        assert np.isclose(f(np.array([i]), pose[i][None])[0], found[i], rtol=1e-12)   # the pose gives the value
+        assert np.isclose(f(np.array([i]))(pose[i][None, None])[0, 0], found[i], rtol=1e-12)   # the pose gives the value
         assert found[i] >= sampled[i].max()
 
 
