@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import worstcase
 from .evaluate import _COND, Evaluator
 from .mechanisms import symbolic_model
 
@@ -326,9 +327,26 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
                 values[r.name], grads[r.name] = _mean(v, g, reach, weights)
     name = evaluator._cond if evaluator._cond is not None else _COND
     ok = reach & np.isfinite(local[name])
+    limit = getattr(evaluator, "limit", evaluator.threshold)
     with np.errstate(all="ignore"):
-        cons = {"singularity": np.where(ok, np.log(local[name] / getattr(evaluator, "limit", evaluator.threshold)), 1.0)}
+        cons = {"singularity": np.where(ok, np.log(local[name] / limit), 1.0)}
         cgrads = {"singularity": np.where(ok[..., None], local_grads[name] / local[name][..., None], 0.0)}
+    if getattr(evaluator, "worst_case", False):       # and at each design's worst pose of the continuous W
+        req = next(r for r in evaluator.requests_all if r.name == name)
+        poses = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
+                                      np.where(ok, local[name], np.inf))
+        c, g = [], []
+        for i in range(len(X)):
+            di = {k: v[i:i + 1] for k, v in designs.items()}
+            mi = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in di.items()}})
+            Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, poses[i][None], values_only)
+            with np.errstate(all="ignore"):
+                v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
+                good = bool(np.all(np.isfinite(Qi)) and np.isfinite(v).all())
+                c.append(np.log(v[0, 0] / limit) if good else 1.0)
+                g.append(gv[0, 0] / v[0, 0] if good else np.zeros(gv.shape[-1]))
+        cons["singularity"] = np.concatenate([cons["singularity"], np.array(c)[:, None]], axis=1)
+        cgrads["singularity"] = np.concatenate([cgrads["singularity"], np.array(g)[:, None, :]], axis=1)
     if evaluator.stroke_limits is not None:
         lo, hi = evaluator.stroke_limits
         D, N, a = Q.shape

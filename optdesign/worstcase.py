@@ -38,7 +38,7 @@ import numpy as np
 from .indices import local_index
 from .workspace import Workspace
 
-__all__ = ["region", "maximize", "local_functions", "worst_over_w", "q_range", "STARTS", "ITERATIONS", "TOL"]
+__all__ = ["region", "maximize", "local_functions", "worst_over_w", "worst_poses", "q_range", "STARTS", "ITERATIONS", "TOL"]
 
 #: worst samples per design the search starts from
 STARTS = 3
@@ -312,3 +312,14 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
         qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg)[0])
         qr = (qn, qx)
     return cmax, qr
+
+
+def worst_poses(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
+                request, sampled: np.ndarray) -> np.ndarray:
+    """The pose (D, dof) SI of each design's largest condition number over W
+    (``sampled`` (D, N) its values at ``ws.X``, inf where not reachable):
+    where the gradient polish adds the constraint at the worst pose (by the
+    envelope theorem the derivative of the maximum over W is the partial
+    derivative there)."""
+    fs = local_functions(mechanism, fixed, designs, request.kind, request.convention)
+    return maximize(fs["cond"], ws, np.asarray(sampled, float))[1]

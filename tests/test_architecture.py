@@ -112,7 +112,7 @@ def test_nothing_imports_the_cli():
                             "optdesign.worstcase")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
     ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
-                             "optdesign.indices")),
+                             "optdesign.indices", "optdesign.worstcase")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
     # units of what a user sees: from the config and the mechanism's declarations, through evaluate
     ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
