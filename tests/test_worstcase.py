@@ -45,7 +45,7 @@ def test_singular_between_the_samples_is_infeasible():
     assert _dense(ev, BETWEEN) > 1000.0                                         # and a dense grid agrees
 
 
-@pytest.mark.parametrize("path", [PAPER, pytest.param(DATA / "p4s_tiny.yaml", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("path", [PAPER, DATA / "p4s_tiny.yaml"])
 def test_found_maximum_matches_a_dense_grid(path):
     """The search's maximum over W against a 401^2 grid, with the config's
     cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2)."""
