@@ -28,6 +28,7 @@ from .indices import INDEX_KINDS, global_summary, local_index, weighted_summary
 from .mechanisms import Mechanism, get
 from .mechanisms.base import IndexRequest
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
+from . import worstcase
 
 __all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
            "index_requests", "check_size", "global_indices_error", "error_method", "unreachable_design",
@@ -326,12 +327,19 @@ class Evaluator:
     {name: (D,)}, "reachable_fraction": (D,)}``.  Constraints (``<= 0`` feasible):
 
     * ``reach``: the fraction of workspace points the design cannot reach;
-    * ``singularity``: ``max_W cond(J) / threshold - 1`` (the largest local
-      condition number over W: the config's first isotropy index, else
-      cond_2(J)), 1 where it is not finite;
+    * ``singularity``: ``max_W cond(J) / (threshold (1 - margin)) - 1`` (the
+      largest local condition number over W: the config's first isotropy
+      index, else cond_2(J)), 1 where it is not finite;
     * ``finite``: 1 where a global index is not finite;
     * ``stroke_low`` / ``stroke_high``: actuator values outside
-      ``stroke_limits`` anywhere in W (m), when the config sets them.
+      ``stroke_limits`` (narrowed by ``margin`` times their span on each
+      side) anywhere in W (m), when the config sets them.
+
+    With ``worst_case`` the maxima over W are those of the continuous search
+    of :mod:`optdesign.worstcase` (from the worst samples, for every design
+    that the samples find feasible; an unreachable pose it meets makes
+    ``singularity`` 1), else the samples' maxima.  ``threshold`` stays the
+    limit itself (the certificates' limit); ``limit`` is the tightened one.
     """
 
     CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
@@ -339,7 +347,8 @@ class Evaluator:
     def __init__(self, mechanism: type[Mechanism], fixed: Mapping[str, float], defaults: Mapping[str, float],
                  free: list[str], xl: np.ndarray, xu: np.ndarray, workspace: Workspace,
                  requests: list[IndexRequest], senses: Mapping[str, str], threshold: float,
-                 stroke_limits: tuple[float, float] | None, extra: tuple[str, ...] = ()):
+                 stroke_limits: tuple[float, float] | None, extra: tuple[str, ...] = (),
+                 worst_case: bool = False, margin: float = 0.0):
         self.mechanism = mechanism
         self.fixed = dict(fixed)
         self.defaults = dict(defaults)
@@ -351,6 +360,9 @@ class Evaluator:
         self.senses = dict(senses)
         self.threshold = float(threshold)
         self.stroke_limits = stroke_limits
+        self.worst_case = bool(worst_case)
+        self.margin = float(margin)
+        self.limit = self.threshold * (1.0 - self.margin)
         self.extra = {k: mechanism.extra_objectives[k] for k in extra}
         iso = [r.name for r in requests if r.kind == "isotropy"]
         self._cond = iso[0] if iso else None
@@ -373,7 +385,8 @@ class Evaluator:
                    np.array([config.design_variables[k].bounds[1] for k in free]),
                    workspace if workspace is not None else workspace_of(config),
                    index_requests(config), {k: s.sense for k, s in config.indices.items()},
-                   opt.singularity_threshold, opt.stroke_limits, tuple(opt.extra_objectives))
+                   opt.singularity_threshold, opt.stroke_limits, tuple(opt.extra_objectives),
+                   opt.worst_case, opt.constraint_margin)
 
     # ------------------------------------------------------------------ vectors
     def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -413,19 +426,25 @@ class Evaluator:
         else:  # the largest cond_2 over the reachable points, 0 where there is none
             s = summary[_COND]
             cmax = np.where(s["count"] > 0, s["max"], 0.0)
+        Q = None
+        if self.stroke_limits is not None:
+            with np.errstate(all="ignore"):
+                Q = mech.inverse(self.workspace.X)
+        if self.worst_case:
+            req = next(r for r in self.requests_all if r.name == (self._cond or _COND))
+            cmax, Q = worstcase.worst_over_w(self.mechanism, self.fixed, designs, self.workspace, req, self.limit,
+                                             cmax, frac, Q, self.stroke_limits, self.margin)
         cons = {
             "reach": 1.0 - frac,
-            "singularity": np.where(np.isfinite(cmax), cmax / self.threshold - 1.0, 1.0),
+            "singularity": np.where(np.isfinite(cmax), cmax / self.limit - 1.0, 1.0),
             "finite": np.where(np.all([np.isfinite(v) for v in vals.values()], axis=0), 0.0, 1.0),
         }
         if self.stroke_limits is not None:
             lo, hi = self.stroke_limits
-            with np.errstate(all="ignore"):
-                Q = mech.inverse(self.workspace.X)
-            qmin = np.nanmin(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
-            qmax = np.nanmax(np.where(np.isfinite(Q), Q, np.nan), axis=(-1, -2))
-            cons["stroke_low"] = np.where(np.isfinite(qmin), lo - qmin, 1.0)
-            cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - hi, 1.0)
+            pad = self.margin * (hi - lo)
+            qmin, qmax = Q if isinstance(Q, tuple) else worstcase.q_range(Q)
+            cons["stroke_low"] = np.where(np.isfinite(qmin), lo + pad - qmin, 1.0)
+            cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - (hi - pad), 1.0)
         vals.update(self.extra_values(designs))
         self.n_evaluations += X.shape[0]
         return {"values": vals, "constraints": cons, "reachable_fraction": frac}

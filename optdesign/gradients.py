@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import worstcase
 from .evaluate import _COND, Evaluator
 from .mechanisms import symbolic_model
 
@@ -54,11 +55,11 @@ class Derivatives:
     ``fd_error[name]`` (D, n): |g(h) - g(2h)| / 3 on the fd route.
 
     The smooth constraints: on the AD route ``singularity`` is
-    ``log(cond(x_j) / threshold)`` at every workspace point j (the same
-    feasible set as the Evaluator's ``max_W cond / threshold - 1``, without
+    ``log(cond(x_j) / limit)`` at every workspace point j (the same
+    feasible set as the Evaluator's sampled ``max_W cond / limit - 1``, without
     the kink of the maximum, and no steeper than cond itself where it grows
     without bound near a singularity) and ``stroke_low`` / ``stroke_high`` are
-    ``(lo - q) / (hi - lo)`` and ``(q - hi) / (hi - lo)`` at every point and
+    ``(lo + pad - q) / (hi - lo)`` and ``(q - hi + pad) / (hi - lo)`` (pad: the margin times hi - lo) at every point and
     actuator; an unreachable point counts as violated by 1.  On the fd route
     they are the Evaluator's own (one value each, the maximum over W)."""
 
@@ -326,16 +327,34 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
                 values[r.name], grads[r.name] = _mean(v, g, reach, weights)
     name = evaluator._cond if evaluator._cond is not None else _COND
     ok = reach & np.isfinite(local[name])
+    limit = getattr(evaluator, "limit", evaluator.threshold)
     with np.errstate(all="ignore"):
-        cons = {"singularity": np.where(ok, np.log(local[name] / evaluator.threshold), 1.0)}
+        cons = {"singularity": np.where(ok, np.log(local[name] / limit), 1.0)}
         cgrads = {"singularity": np.where(ok[..., None], local_grads[name] / local[name][..., None], 0.0)}
+    if getattr(evaluator, "worst_case", False):       # and at each design's worst pose of the continuous W
+        req = next(r for r in evaluator.requests_all if r.name == name)
+        poses = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
+                                      np.where(ok, local[name], np.inf))
+        c, g = [], []
+        for i in range(len(X)):
+            di = {k: v[i:i + 1] for k, v in designs.items()}
+            mi = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in di.items()}})
+            Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, poses[i][None], values_only)
+            with np.errstate(all="ignore"):
+                v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
+                good = bool(np.all(np.isfinite(Qi)) and np.isfinite(v).all())
+                c.append(np.log(v[0, 0] / limit) if good else 1.0)
+                g.append(gv[0, 0] / v[0, 0] if good else np.zeros(gv.shape[-1]))
+        cons["singularity"] = np.concatenate([cons["singularity"], np.array(c)[:, None]], axis=1)
+        cgrads["singularity"] = np.concatenate([cgrads["singularity"], np.array(g)[:, None, :]], axis=1)
     if evaluator.stroke_limits is not None:
         lo, hi = evaluator.stroke_limits
         D, N, a = Q.shape
         okq = np.broadcast_to(reach[..., None], Q.shape)
         span = hi - lo
-        cons["stroke_low"] = np.where(okq, (lo - Q) / span, 1.0).reshape(D, N * a)
-        cons["stroke_high"] = np.where(okq, (Q - hi) / span, 1.0).reshape(D, N * a)
+        pad = getattr(evaluator, "margin", 0.0) * span     # the Evaluator's limits, narrowed by its margin
+        cons["stroke_low"] = np.where(okq, (lo + pad - Q) / span, 1.0).reshape(D, N * a)
+        cons["stroke_high"] = np.where(okq, (Q - hi + pad) / span, 1.0).reshape(D, N * a)
         dq = np.where(okq[..., None], dQ, 0.0)
         cgrads["stroke_low"] = (-dq / span).reshape(D, N * a, -1)
         cgrads["stroke_high"] = (dq / span).reshape(D, N * a, -1)

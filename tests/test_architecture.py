@@ -105,14 +105,16 @@ def test_nothing_imports_the_cli():
     ("optdesign.cubature", ()),
     ("optdesign.workspace", ("optdesign.cubature",)),
     ("optdesign.indices", ()),
+    # the worst case of a local constraint over the continuous W: a mechanism's matrices and indices over W
+    ("optdesign.worstcase", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # config validates against the mechanisms' declarations, the workspace spec and the index kinds
     ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # evaluate: the one place that builds mechanisms from a config
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature",
-                            "optdesign.indices")),
+                            "optdesign.indices", "optdesign.worstcase")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
     ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
-                             "optdesign.indices")),
+                             "optdesign.indices", "optdesign.worstcase")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
     # units of what a user sees: from the config and the mechanism's declarations, through evaluate
     ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
@@ -130,7 +132,7 @@ def test_layers_import_only_what_lies_below(layer, allowed):
 
 
 def test_no_config_below_evaluate():
-    for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices", "optdesign.linalg",
+    for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices", "optdesign.worstcase", "optdesign.linalg",
                   "optdesign.fast"):
         for name, path in MODULES:
             if _under(name, layer):

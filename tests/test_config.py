@@ -146,6 +146,10 @@ MISTAKES = [
     ("design-name-too-long", _set(["designs", "x" * 101], {"r_a": 0.25}), "", "a name of 101 characters; expected at most 100"),
     ("index-name-dot", _set(["indices", ".hidden"], {"kind": "dynamic"}), "indices..hidden", "may not start with '.'"),
     ("did-you-mean-key", _set(["worksapce"], {}), "worksapce", "did you mean 'workspace'"),
+    ("worst-case-not-bool", _set(["optimizer", "worst_case"], "yes"), "optimizer.worst_case", "expected true or false"),
+    ("margin-too-large", _set(["optimizer", "constraint_margin"], 0.7), "optimizer.constraint_margin",
+     "expected a fraction in [0, 0.5)"),
+    ("margin-negative", _set(["optimizer", "constraint_margin"], -0.01), "optimizer.constraint_margin", "non-negative"),
 ]
 
 

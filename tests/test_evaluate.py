@@ -4,6 +4,8 @@ constraint quantities in one pass), checked against quantities computed here
 independently from the mechanism's public numpy methods and optdesign.linalg."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -53,10 +55,16 @@ def test_vectors_and_designs_round_trip():
 
 
 def test_values_equal_evaluate_and_constraints_equal_independent_ones():
+    """At the samples (worst_case off, no margin) the constraints are the
+    sampled ones; with the defaults (the worst case over W, margin 0.1 %)
+    the singularity constraint is never below them."""
     cfg = load_config(CONFIGS / "p4s_paper.yaml")
+    cfg_wc = load_config(CONFIGS / "p4s_paper.yaml")
+    cfg.optimizer = dataclasses.replace(cfg.optimizer, worst_case=False, constraint_margin=0.0)
     ev = Evaluator.from_config(cfg)
     X = _random_vectors(ev, 12, seed=3)
     out = ev(X)
+    out_wc = Evaluator.from_config(cfg_wc)(X)
     assert ev.constraint_names == ["reach", "singularity", "finite"]
     e2 = evaluate(cfg, ev.designs(X))
     for k in cfg.indices:
@@ -77,6 +85,8 @@ def test_values_equal_evaluate_and_constraints_equal_independent_ones():
     np.testing.assert_allclose(out["constraints"]["singularity"][ok], cmax[ok] / cfg.optimizer.singularity_threshold - 1,
                                rtol=1e-12)
     assert np.all(out["constraints"]["finite"] == 0.0)
+    assert np.all(out_wc["constraints"]["singularity"][ok] >= cmax[ok] / 999.0 - 1 - 1e-12)
+    np.testing.assert_array_equal(out_wc["constraints"]["reach"], out["constraints"]["reach"])
 
 
 def test_worst_conditioning_without_an_isotropy_index():
@@ -86,7 +96,8 @@ def test_worst_conditioning_without_an_isotropy_index():
     cfg = parse_config((DATA / "p4s_small.yaml").read_text().replace(
         "indices: {dynamic: {}, stiffness: {}, isotropy: {}}", "indices: {dynamic: {}, stiffness: {}}").replace(
         "  before: {dynamic: 29.9205, stiffness: 0.1373, isotropy: 10.0075}\n  after: {dynamic: 15.2434, stiffness: 0.3522, isotropy: 4.5370}",
-        "  before: {dynamic: 29.9205}"), "p4s_small.yaml")
+        "  before: {dynamic: 29.9205}").replace("optimizer: {", "optimizer: {worst_case: false, constraint_margin: 0, "),
+        "p4s_small.yaml")
     assert "isotropy" not in cfg.indices
     ev = Evaluator.from_config(cfg)
     X = np.vstack([_random_vectors(ev, 6, seed=5), [[0.01, 0.02, 0.3]]])   # the last reaches nothing
@@ -132,7 +143,7 @@ def test_extra_objectives_come_from_the_mechanism():
 def test_stroke_limits_from_inverse_kinematics():
     text = (DATA / "p4s_small.yaml").read_text().replace(
         "optimizer: {", "optimizer: {stroke_limits: [0.40, 0.45], ")
-    cfg = parse_config(text, "s.yaml")
+    cfg = parse_config(text.replace("optimizer: {", "optimizer: {worst_case: false, constraint_margin: 0, "), "s.yaml")
     ev = Evaluator.from_config(cfg)
     assert ev.constraint_names[-2:] == ["stroke_low", "stroke_high"]
     X = _random_vectors(ev, 5, seed=2)
@@ -142,6 +153,24 @@ def test_stroke_limits_from_inverse_kinematics():
         Q = mech.inverse(workspace_of(cfg).X)
     np.testing.assert_allclose(out["constraints"]["stroke_low"], 0.40 - np.nanmin(Q, axis=(-1, -2)), rtol=0, atol=1e-15)
     np.testing.assert_allclose(out["constraints"]["stroke_high"], np.nanmax(Q, axis=(-1, -2)) - 0.45, rtol=0, atol=1e-15)
+    # the worst case over W (no margin): never below the samples, and at the extreme stroke of a dense grid
+    wide = parse_config(text.replace("[0.40, 0.45]", "[0.0, 1.0]").replace("optimizer: {", "optimizer: {constraint_margin: 0, "),
+                        "s.yaml")
+    ev_wc = Evaluator.from_config(wide)
+    out_wc = ev_wc(X)
+    spec = ev_wc.workspace.spec
+    g = np.linspace(-1, 1, 201)
+    a, b = np.meshgrid(g, g, indexing="ij")
+    P = np.stack([spec.axes["x"][0] + (a.ravel() + 1) / 2 * (spec.axes["x"][1] - spec.axes["x"][0]),
+                  spec.axes["y"][0] + (b.ravel() + 1) / 2 * (spec.axes["y"][1] - spec.axes["y"][0]),
+                  np.full(a.size, spec.axes["z"][0])], axis=1)
+    with np.errstate(all="ignore"):
+        Qd = mech.inverse(P)
+    searched = (out_wc["constraints"]["singularity"] <= 0) & (out_wc["constraints"]["reach"] <= 0)
+    assert searched.any()
+    hi_wc = out_wc["constraints"]["stroke_high"] + 1.0
+    assert np.all(hi_wc >= np.nanmax(Q, axis=(-1, -2)) - 1e-15)
+    np.testing.assert_allclose(hi_wc[searched], np.nanmax(Qd, axis=(-1, -2))[searched], rtol=1e-6)
 
 
 def test_keep_local_gives_the_local_values_behind_the_summary():

@@ -116,6 +116,8 @@ def test_the_smooth_conditioning_constraint_is_the_evaluators():
         X = _designs(ev, 5, 6)
         d = derivatives(ev, X)
         g = ev(X)["constraints"]["singularity"]
-        # per point log(cond / T); its largest value is log of the Evaluator's max cond / T
+        # per point log(cond / T) and, with the worst case over W (the default), at each design's worst pose;
+        # its largest value is log of the Evaluator's max cond / T
         assert np.allclose(np.max(d.constraints["singularity"], axis=1), np.log1p(g), rtol=1e-10, atol=1e-12)
-        assert d.constraints["singularity"].shape == (len(X), ev.workspace.n)
+        assert ev.worst_case
+        assert d.constraints["singularity"].shape == (len(X), ev.workspace.n + 1)

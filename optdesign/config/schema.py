@@ -59,6 +59,8 @@ class OptimizerSpec:
     extra_objectives: tuple[str, ...] = ()
     singularity_threshold: float = 1e3
     stroke_limits: tuple[float, float] | None = None
+    worst_case: bool = True        # local constraints hold at every pose of W (optdesign.worstcase), not at the samples
+    constraint_margin: float = 1e-3  # optimize against limit (1 - margin); certificates use the limit itself
     checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
     prescan: int | None = None     # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none;
                                    # None: the smaller of 2048 and population x generations

@@ -29,7 +29,7 @@ _NOT_FOR = {
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "prescan", "polish",
-            "checkpoint_interval"}
+            "checkpoint_interval", "worst_case", "constraint_margin"}
 #: keys of earlier versions that had no effect: refused in a new config, ignored in a run folder's
 REMOVED_OPT_KEYS = {
     "normalization": "every term is normalized so that 0 is best, and the literal eq. 38 runs as its own stage",
@@ -228,6 +228,13 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
         kw["singularity_threshold"] = r.number(opt["singularity_threshold"], f"{path}.singularity_threshold", positive=True)
     if "stroke_limits" in opt:
         kw["stroke_limits"] = r.pair(opt["stroke_limits"], f"{path}.stroke_limits")
+    if "worst_case" in opt:
+        kw["worst_case"] = r.boolean(opt["worst_case"], f"{path}.worst_case")
+    if "constraint_margin" in opt:
+        x = r.number(opt["constraint_margin"], f"{path}.constraint_margin", nonneg=True)
+        if x >= 0.5:
+            r.fail(f"{path}.constraint_margin", f"expected a fraction in [0, 0.5), got {x:g}")
+        kw["constraint_margin"] = x
     if "prescan" in opt:
         kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
     if "polish" in opt:

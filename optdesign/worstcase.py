@@ -1,0 +1,325 @@
+"""The worst case of a local quantity over the continuous workspace W.
+
+A local constraint (the singularity bound cond(J) <= limit, reachability,
+the stroke limits) must hold at every pose of W, not only at the samples.
+:func:`maximize` finds, for each of D designs, the largest value of a local
+quantity over W by a continuous search:
+
+1. the ``starts`` worst samples of the evaluated points, each at least two
+   sample spacings from the ones picked before (so that the starts lie on
+   different hills), are the starting poses;
+2. from each, a projected gradient ascent over the free pose axes inside W's
+   bounds (a box: clipped to it; a cylinder: projected onto its disc),
+   vectorized over every (design, start) pair at once: forward differences
+   of the quantity in W's unit coordinates (evaluated with each trial pose,
+   in one call), a step along the normalized gradient that doubles when it
+   gains and halves when it does not, until the step falls below ``tol``
+   (unit coordinates) or ``iterations`` are spent;
+3. a pair stops early once its value passes ``stop`` (the design is
+   infeasible by a clear margin: its value is then a lower bound of the
+   maximum, enough to reject it) or is not finite (an unreachable pose or an
+   exact singularity: a violation).
+
+The quantity is a factory ``make(index)`` of a callable ``f(X) -> (K, M)``:
+the value at poses X[:, m] (SI, (K, M, dof)) of design ``index[m]``, larger is
+worse, ``inf`` where the pose is not reachable (one mechanism instance of the
+M starts' designs serves the whole search).  :func:`local_functions` builds
+the conditioning and stroke quantities of a mechanism class for a population (the Jacobian from
+``Mechanism.index_matrices`` through :func:`optdesign.indices.local_index`,
+the same convention as the sampled index).  The answer of :func:`maximize`
+is never below the samples' maximum.
+"""
+from __future__ import annotations
+
+from typing import Callable, Mapping
+
+import numpy as np
+
+from .indices import local_index
+from .workspace import Workspace
+
+__all__ = ["region", "maximize", "local_functions", "worst_over_w", "worst_poses", "q_range", "STARTS", "ITERATIONS", "TOL"]
+
+#: worst samples per design the search starts from
+STARTS = 3
+#: most ascent steps per start
+ITERATIONS = 30
+#: the search of a start ends when its step (unit coordinates of W) is below this
+TOL = 5e-4
+#: finite-difference step (unit coordinates of W)
+H = 1e-6
+
+
+def region(ws: Workspace) -> dict:
+    """W's free axes and bounds: ``{"axes": indices of the free pose axes,
+    "lo", "hi": their bounds (SI), "disc": (cx, cy, r) or None}`` (a cylinder's
+    disc lies in the first two axes, always free)."""
+    spec, names = ws.spec, ws.names
+    if spec.type == "cylinder":
+        cx, cy = spec.center
+        r = float(spec.radius)
+        z = spec.axes.get(names[2], (0.0, 0.0))
+        axes = [0, 1] + ([2] if z[1] > z[0] else [])
+        lo = [cx - r, cy - r] + ([z[0]] if z[1] > z[0] else [])
+        hi = [cx + r, cy + r] + ([z[1]] if z[1] > z[0] else [])
+        return {"axes": np.array(axes), "lo": np.array(lo, float), "hi": np.array(hi, float),
+                "disc": (float(cx), float(cy), r)}
+    axes = [i for i, a in enumerate(names) if spec.axes[a][1] > spec.axes[a][0]]
+    return {"axes": np.array(axes, int), "lo": np.array([spec.axes[names[i]][0] for i in axes], float),
+            "hi": np.array([spec.axes[names[i]][1] for i in axes], float), "disc": None}
+
+
+def _diverse_worst(sampled: np.ndarray, U: np.ndarray, k: int) -> np.ndarray:
+    """(D, k) indices of the worst samples (D, N) of each design, picked
+    greedily, each at least two spacings (unit coordinates U (N, f)) from
+    the picks before; where no sample is left so far, the next worst."""
+    D, N = sampled.shape
+    r2 = (2.0 * max(N, 2) ** (-1.0 / U.shape[1])) ** 2
+    free = np.ones((D, N), bool)
+    score = np.where(np.isnan(sampled), np.inf, sampled)
+    picks = []
+    for _ in range(k):
+        s = np.where(free, score, -np.inf)
+        i = np.argmax(s, axis=1)
+        none = ~np.isfinite(s[np.arange(D), i]) & (s[np.arange(D), i] < 0)
+        if none.any():     # every sample near a pick: the next worst not yet picked
+            taken = np.zeros((D, N), bool)
+            for p in picks:
+                taken[np.arange(D), p] = True
+            i = np.where(none, np.argmax(np.where(taken, -np.inf, score), axis=1), i)
+        picks.append(i)
+        d2 = sum((U[None, :, j] - U[i, j][:, None]) ** 2 for j in range(U.shape[1]))
+        free &= d2 > r2
+    return np.stack(picks, axis=1)
+
+
+def _project(u: np.ndarray, reg: dict) -> np.ndarray:
+    """Unit coordinates (M, f) back into W: the box [0, 1]^f, and the disc."""
+    u = np.clip(u, 0.0, 1.0)
+    if reg["disc"] is not None:
+        # the disc is the circle inscribed in the unit square of its two axes
+        d = u[:, :2] - 0.5
+        n = np.sqrt(np.sum(d * d, axis=1))
+        s = np.where(n > 0.5, 0.5 / np.maximum(n, 1e-300), 1.0)
+        u = u.copy()
+        u[:, :2] = 0.5 + d * s[:, None]
+    return u
+
+
+def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
+             starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
+             active: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
+    designs, whose values at the workspace points ``ws.X`` are ``sampled``
+    (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
+    (index (M,): the design of each start) returns the quantity
+    ``f(X) -> (K, M)`` at poses X (K, M, dof) (SI) of those designs (see
+    :func:`local_functions`).  ``active`` (D,) bool: the designs to search
+    (the others keep their sampled maximum).  Each ascent step costs one call
+    of ``f`` on 1 + f poses per start: the trial pose and its forward
+    differences (kept when the trial gains)."""
+    sampled = np.where(np.isnan(sampled), np.inf, sampled)
+    D, N = sampled.shape
+    X0 = ws.X
+    best_i = np.argmax(sampled, axis=1) if N else np.zeros(D, int)
+    best = sampled[np.arange(D), best_i] if N else np.full(D, -np.inf)
+    pose = X0[best_i].copy() if N else np.zeros((D, len(ws.names)))
+    reg = region(ws)
+    if reg["axes"].size == 0 or N == 0:
+        return best, pose
+    todo = np.isfinite(best) & (best < stop)
+    if active is not None:
+        todo &= np.asarray(active, bool)
+    d_idx = np.flatnonzero(todo)
+    if d_idx.size == 0:
+        return best, pose
+    axes, lo, hi = reg["axes"], reg["lo"], reg["hi"]
+    width = hi - lo
+    k = min(starts, N)
+    worst = _diverse_worst(sampled[d_idx], (X0[:, axes] - lo) / width, k)
+    design = np.repeat(d_idx, k)                       # (M,) the design of each start
+    start_pts = worst.reshape(-1)
+    cache = {}
+    base = X0[start_pts].copy()                        # (M, dof) the fixed axes stay
+    u = (base[:, axes] - lo) / width
+    val = sampled[design, start_pts].copy()
+    n_free = axes.size
+    step = np.full(design.size, 0.5 * max(N, 2) ** (-1.0 / n_free))
+    eye = np.eye(n_free) * H
+
+    def probe(uu, rows):
+        """The quantity (1 + f, M) at uu (M, f) and at its forward neighbours
+        (backward at an upper bound), evaluated for the starts ``rows`` (M,)
+        bool only (-inf elsewhere); (points (1 + f, M, f), values, gradient (M, f))."""
+        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
+        P = np.stack([_project(q, reg) for q in nb])
+        v = np.full(P.shape[:2], -np.inf)
+        r = np.flatnonzero(rows)
+        if r.size:
+            key = r.tobytes()
+            if key not in cache:            # one mechanism of the live starts' designs, until the set shrinks
+                cache.clear()
+                cache[key] = make(design[r])
+            X = np.broadcast_to(base[r], (P.shape[0], r.size) + base.shape[1:]).copy()
+            X[..., axes] = lo + P[:, r] * width
+            with np.errstate(all="ignore"):
+                vr = np.asarray(cache[key](X), float)
+            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
+        with np.errstate(all="ignore"):
+            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
+        return P, v, np.where(np.isfinite(g), g, 0.0)
+
+    def settle(P, v, rows):
+        """Starts whose probe met a pose past the stop (or not finite) take it and end."""
+        vmax = v.max(axis=0)
+        hit = rows & ~(vmax < stop) & (vmax > val)
+        if hit.any():
+            jj = np.argmax(v, axis=0)
+            h = np.flatnonzero(hit)
+            u[h] = P[jj[h], h]
+            val[h] = vmax[h]
+        return hit
+
+    live = np.isfinite(val) & (val < stop)
+    P, v, g = probe(u, live)
+    live &= ~settle(P, v, live)
+    for _ in range(iterations):
+        norm = np.sqrt(np.sum(g * g, axis=1))
+        live &= norm > 0                                # a flat point (zero gradient): stationary
+        if not live.any():
+            break
+        d = g / np.maximum(norm, 1e-300)[:, None]
+        trial = _project(u + step[:, None] * d, reg)
+        P, v, gt = probe(trial, live)
+        gain = live & (v[0] > val)
+        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
+        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
+        live &= ~settle(P, v, live)         # a probed pose past the stop, gained or not
+        live &= np.isfinite(val) & (val < stop) & (step >= tol)
+    # the best start of each design
+    found = np.full(D, -np.inf)
+    np.maximum.at(found, design, val)
+    better = found > best
+    for dd in np.flatnonzero(better):
+        m = np.flatnonzero((design == dd) & (val == found[dd]))[0]
+        X = base[m].copy()
+        X[axes] = lo + u[m] * width
+        pose[dd] = X
+    best = np.where(better, found, best)
+    return best, pose
+
+
+def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray],
+                    kind: str = "isotropy", convention: str | None = None, stroke: bool = False) -> dict:
+    """The local quantities of a population for :func:`maximize`, each a
+    factory ``make(index) -> f(X)`` (one mechanism of the designs ``index``
+    (M,), poses X (K, M, dof) -> (K, M)): ``"cond"`` (the condition number of
+    the Jacobian by ``convention``, inf where the pose is not reachable) and,
+    with ``stroke``, ``"q_max"`` and ``"q_min_neg"`` (the largest actuator
+    value and minus the smallest, inf where not reachable).  ``designs`` maps
+    parameters to arrays (D,)."""
+    designs = {k: np.asarray(v, float) for k, v in designs.items()}
+
+    def mech_of(index):
+        return mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
+
+    def cond(index):
+        m = mech_of(index)
+
+        def f(X):
+            with np.errstate(all="ignore"):
+                reach = np.asarray(m.reachable(X), bool)
+                J = m.index_matrices(X, {"J"})["J"]
+                c = np.asarray(local_index(kind, J=J, M=None, convention=convention, options={}), float)
+            return np.where(reach & np.isfinite(c), c, np.inf)
+        return f
+
+    out = {"cond": cond}
+    if stroke:
+        def q(index, sign):
+            m = mech_of(index)
+
+            def f(X):
+                with np.errstate(all="ignore"):
+                    reach = np.asarray(m.reachable(X), bool)
+                    v = np.max(np.asarray(m.inverse(X), float) * sign, axis=-1)
+                return np.where(reach & np.isfinite(v), v, np.inf)
+            return f
+        out["q_max"] = lambda index: q(index, 1.0)
+        out["q_min_neg"] = lambda index: q(index, -1.0)
+    return out
+
+
+def q_range(Q) -> tuple[np.ndarray, np.ndarray]:
+    """(min, max) (D,) of the finite actuator values Q (D, N, n_act); NaN where none."""
+    with np.errstate(all="ignore"):
+        F = np.where(np.isfinite(Q), Q, np.nan)
+        return np.nanmin(F, axis=(-1, -2)), np.nanmax(F, axis=(-1, -2))
+
+
+def _sampled_cond(mech, X: np.ndarray, request, D: int) -> np.ndarray:
+    """The local condition numbers (D, N) at the samples, inf where not
+    reachable: the compiled path's local values when it has them."""
+    fast = mech.local_values([request], X)
+    with np.errstate(all="ignore"):
+        if fast is not None:
+            vals, reach = fast
+            v = np.broadcast_to(vals[request.name], (D, X.shape[0]))
+        else:
+            reach = mech.reachable(X)
+            v = local_index(request.kind, J=mech.index_matrices(X, {"J"})["J"], M=None,
+                            convention=request.convention, options={})
+        reach = np.broadcast_to(reach, (D, X.shape[0]))
+        v = np.broadcast_to(v, (D, X.shape[0]))
+    return np.where(reach & np.isfinite(v), v, np.inf)
+
+
+def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
+                 request, limit: float, cmax: np.ndarray, reach_fraction: np.ndarray, Q=None,
+                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0):
+    """The maxima over W of the local constraints of a population (what the
+    Evaluator's constraints need): ``(max cond (D,), (min q, max q) (D,) or
+    None)``.  ``cmax`` and ``Q`` (D, N, n_act) are the samples' values; the
+    search runs for the designs the samples find feasible (every point
+    reachable, cond <= ``limit``, the strokes within the limits narrowed by
+    ``margin`` times their span); the others are infeasible already and keep
+    their sampled values.  ``request`` is the conditioning index request (its
+    kind and convention are those of the sampled index)."""
+    cmax = np.array(cmax, float)
+    ok = (reach_fraction >= 1.0) & np.isfinite(cmax) & (cmax <= limit)
+    qr = q_range(Q) if Q is not None else None
+    if qr is not None:
+        lo, hi = stroke_limits
+        pad = margin * (hi - lo)
+        ok &= (qr[0] >= lo + pad) & (qr[1] <= hi - pad)
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return cmax, qr
+    sub = {k: np.asarray(v, float)[idx] for k, v in designs.items()}
+    mech = mechanism(**{**fixed, **{k: v[:, None] for k, v in sub.items()}})
+    sampled = _sampled_cond(mech, ws.X, request, idx.size)
+    fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None)
+    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit)
+    cmax[idx] = np.maximum(cmax[idx], found)
+    if qr is not None:
+        qn, qx = qr[0].copy(), qr[1].copy()
+        Qs = np.asarray(Q)[idx]
+        with np.errstate(all="ignore"):
+            fin = np.all(np.isfinite(Qs), axis=-1)
+            top = np.where(fin, np.max(Qs, axis=-1), np.inf)
+            neg = np.where(fin, np.max(-Qs, axis=-1), np.inf)
+        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top)[0])
+        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg)[0])
+        qr = (qn, qx)
+    return cmax, qr
+
+
+def worst_poses(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
+                request, sampled: np.ndarray) -> np.ndarray:
+    """The pose (D, dof) SI of each design's largest condition number over W
+    (``sampled`` (D, N) its values at ``ws.X``, inf where not reachable):
+    where the gradient polish adds the constraint at the worst pose (by the
+    envelope theorem the derivative of the maximum over W is the partial
+    derivative there)."""
+    fs = local_functions(mechanism, fixed, designs, request.kind, request.convention)
+    return maximize(fs["cond"], ws, np.asarray(sampled, float))[1]

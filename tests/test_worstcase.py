@@ -1,0 +1,102 @@
+"""The worst case of the local constraints over the continuous W
+(optdesign.worstcase, through the Evaluator): a design whose samples pass but
+which is singular between them is infeasible; the search's maximum agrees
+with a dense grid; the stated margin tightens the limit the optimizer sees,
+while the certificates' limit stays the limit itself."""
+import numpy as np
+import pytest
+import yaml
+
+from conftest import DATA, PAPER
+from optdesign.config import load_config, parse_config
+from optdesign.evaluate import Evaluator
+from optdesign.linalg import cond_2, cond_fro
+from optdesign import worstcase
+
+#: a 3-P(4S) design of the paper's bounds (r_a, r_b in m, phi in rad) whose
+#: 11 x 11 samples have cond_F <= 818, while a singular curve crosses W
+#: between them (found by scanning the bounds against a 201^2 grid)
+BETWEEN = np.array([0.2537, 0.6401, 0.4620])
+
+
+def _dense(ev, x, n=401):
+    """max cond over an n x n grid of W for the design vector x (inf where unreachable)."""
+    spec = ev.workspace.spec
+    (x0, x1), (y0, y1), (z, _) = spec.axes["x"], spec.axes["y"], spec.axes["z"]
+    a, b = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
+    P = np.stack([a.ravel(), b.ravel(), np.full(a.size, z)], axis=1)
+    d = ev.designs(np.atleast_2d(x))
+    m = ev.mechanism(**{**ev.fixed, **{k: v[0] for k, v in d.items()}})
+    conv = next(r.convention for r in ev.requests_all if r.kind == "isotropy")
+    J = m.index_matrices(P, {"J"})["J"]
+    c = cond_fro(J) if conv == "frobenius" else cond_2(J)
+    return float(np.max(np.where(m.reachable(P), c, np.inf)))
+
+
+def test_singular_between_the_samples_is_infeasible():
+    ev = Evaluator.from_config(load_config(PAPER))
+    assert ev.worst_case and ev.threshold == 1000.0
+    ev.worst_case = False
+    sampled = ev(BETWEEN[None])["constraints"]
+    assert sampled["reach"][0] == 0 and sampled["singularity"][0] < -0.1      # the samples pass by a wide margin
+    ev.worst_case = True
+    cons = ev(BETWEEN[None])["constraints"]
+    assert cons["singularity"][0] > 0                                           # the continuous search rejects it
+    assert _dense(ev, BETWEEN) > 1000.0                                         # and a dense grid agrees
+
+
+@pytest.mark.parametrize("path", [PAPER, DATA / "p4s_tiny.yaml"])
+def test_found_maximum_matches_a_dense_grid(path):
+    """The search's maximum over W against a 401^2 grid, with the config's
+    cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2)."""
+    cfg = load_config(path)
+    ev = Evaluator.from_config(cfg)
+    req = next(r for r in ev.requests_all if r.kind == "isotropy")
+    assert req.convention == ("frobenius" if "isotropy" in cfg.indices else "two_norm")
+    X = np.array([[0.25, 0.67, np.deg2rad(30)], [0.29, 0.63, np.deg2rad(25)]])
+    d = ev.designs(X)
+    mech = ev.mechanism(**{**ev.fixed, **{k: v[:, None] for k, v in d.items()}})
+    sampled = worstcase._sampled_cond(mech, ev.workspace.X, req, len(X))
+    f = worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention)["cond"]
+    found, pose = worstcase.maximize(f, ev.workspace, sampled)
+    for i in range(len(X)):
+        dense = _dense(ev, X[i])
+        assert found[i] >= dense * (1 - 1e-4)        # at least what the dense grid sees
+        assert found[i] <= dense * (1 + 1e-3)        # and no more than W holds near it
+        assert np.isclose(f(np.array([i]))(pose[i][None, None])[0, 0], found[i], rtol=1e-12)   # the pose gives the value
+        assert found[i] >= sampled[i].max()
+
+
+def test_the_margin_tightens_the_limit():
+    data = yaml.safe_load(PAPER.read_text())
+    x = np.array([[0.25, 0.67, np.deg2rad(30)]])
+    c = Evaluator.from_config(load_config(PAPER))(x)["constraints"]["singularity"][0]
+    cmax = (c + 1.0) * 999.0                       # the worst cond_F over W (default margin 0.1 %)
+    margin = 0.01
+    data["optimizer"]["singularity_threshold"] = float(cmax / (1 - margin / 2))   # cmax inside the margin band
+    data["optimizer"]["constraint_margin"] = margin
+    ev = Evaluator.from_config(parse_config(yaml.safe_dump(data)))
+    assert ev.limit == pytest.approx(ev.threshold * (1 - margin))
+    assert ev(x)["constraints"]["singularity"][0] > 0          # infeasible against limit (1 - margin)
+    data["optimizer"]["constraint_margin"] = 0.0
+    ev0 = Evaluator.from_config(parse_config(yaml.safe_dump(data)))
+    assert ev0(x)["constraints"]["singularity"][0] <= 0        # feasible against the limit itself
+    assert ev.threshold == ev0.threshold                       # the certificates' limit is the limit
+
+
+def test_worst_case_off_keeps_the_sampled_maximum():
+    data = yaml.safe_load(PAPER.read_text())
+    data["optimizer"]["worst_case"] = False
+    data["optimizer"]["constraint_margin"] = 0.0
+    ev = Evaluator.from_config(parse_config(yaml.safe_dump(data)))
+    c = ev(BETWEEN[None])["constraints"]["singularity"][0]
+    d = ev.designs(BETWEEN[None])
+    m = ev.mechanism(**{**ev.fixed, **{k: v[0] for k, v in d.items()}})
+    assert c == pytest.approx(cond_fro(m.jacobian(ev.workspace.X)).max() / 1000.0 - 1.0, rel=1e-12)
+
+
+def test_projection_stays_in_a_disc():
+    u = np.array([[1.0, 1.0], [0.5, 0.9], [0.0, 0.5]])
+    p = worstcase._project(u, {"disc": (0.0, 0.0, 1.0)})
+    assert np.all(np.sum((p - 0.5) ** 2, axis=1) <= 0.25 + 1e-12)
+    assert np.allclose(p[1:], u[1:])
