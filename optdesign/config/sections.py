@@ -24,7 +24,7 @@ _NOT_FOR = {
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "normalization", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "min_transmission", "prescan", "polish",
-            "checkpoint_interval"}
+            "checkpoint_interval", "extremes"}
 
 
 def _workspace_unit(r: Reader, value: Any, axes: tuple[str, ...], mech_cls) -> str | None:
@@ -205,6 +205,13 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls) -
         kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
     if "polish" in opt:
         kw["polish"] = r.integer(opt["polish"], f"{path}.polish", minimum=0, maximum=100)
+    if "extremes" in opt and opt["extremes"] is not None:
+        em = r.mapping(opt["extremes"], f"{path}.extremes")
+        r.only(em, f"{path}.extremes", {"starts", "scan"})
+        if "starts" in em:
+            kw["extremes_starts"] = r.integer(em["starts"], f"{path}.extremes.starts", minimum=0, maximum=100)
+        if "scan" in em:
+            kw["extremes_scan"] = r.integer(em["scan"], f"{path}.extremes.scan", minimum=1, maximum=1_000_000)
     if "checkpoint_interval" in opt:
         kw["checkpoint_interval"] = r.number(opt["checkpoint_interval"], f"{path}.checkpoint_interval", nonneg=True)
     return OptimizerSpec(**kw)

@@ -149,6 +149,8 @@ def check_stage_result(res: dict, stage, path) -> dict:
               and all(isinstance(x, list) and len(x) == len(names) and all(_num(v) and math.isfinite(v) for v in x)
                       for x in X)
               and all(isinstance(v, list) and len(v) == len(X) and all(_num(a) for a in v) for v in vals.values()))
+    elif ok and stage.kind == "extremes":
+        ok = isinstance(res.get("runs"), dict)
     elif ok and stage.kind in ("single", "weighted"):
         d = res.get("design")
         ok = (isinstance(res.get("feasible"), bool) and _num(res.get("objective"), True)
