@@ -84,7 +84,7 @@ def test_plan_follows_the_config(path):
             if st.algorithm == "nsga2":
                 assert type(alg) is NSGA2 and alg.pop_size == opt.pareto_population
             else:
-                assert type(alg) is NSGA3 and alg.pop_size >= len(reference_directions(n_obj))
+                assert type(alg) is NSGA3 and alg.pop_size >= len(reference_directions(n_obj, opt.pareto_population)) >= opt.pareto_population
         # the paper GA's adaptive mutation comes with its callback; the other algorithms need none
         assert (cb is not None) == (st.kind != "pareto" and opt.algorithm == "paper_ga")
 

@@ -263,6 +263,9 @@ def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evalua
     """The designs a single-objective stage starts from: the pre-scan's best for
     its objective (a tenth of the population) and, for a weighted sum, the
     single-objective stages' answers; None for the other stages."""
+    if st.kind == "pareto":   # the pre-scan's feasible designs: the front is filtered against them
+        pre = stages.get("prescan")
+        return pre["designs"] if pre and pre.get("designs") else None
     if st.kind not in ("single", "weighted"):
         return None
     problem, _, _ = stage_problem(cfg, st, lo, hi, evaluator)
