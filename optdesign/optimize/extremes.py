@@ -12,9 +12,12 @@ they must not depend on the run's seed.  This stage finds them without one:
    best feasible scan designs at least 0.05 apart in the unit box;
 3. each start polished by the project's SLSQP polish (:mod:`.polish`) under
    the Evaluator's constraints, every result checked by the Evaluator;
-4. each polished design snapped onto the bounds it lies within :data:`SNAP`
+4. a second round around each extreme's best polished design: a fixed
+   Sobol cloud of :data:`LOCAL_SCAN` designs within :data:`LOCAL_WIDTH` (unit
+   box) of it, its :data:`LOCAL_STARTS` best feasible designs polished;
+5. each polished design snapped onto the bounds it lies within :data:`SNAP`
    (unit box) of, and the snapped design taken when it is feasible and no
-   worse: a design on its active bounds lies exactly on them.
+   worse (to :data:`SNAP_LOSS` relative): a design on its active bounds lies exactly on them.
 
 The stage's ``observed`` extremes (the best of the scan and of the polished
 designs) are folded with the pre-scan's and the single-objective stages'
@@ -36,6 +39,11 @@ __all__ = ["extremes_scan", "run_extremes", "snap", "evaluate_batches", "SNAP"]
 
 #: a coordinate this close to a bound (unit box) is put on it
 SNAP = 1e-6
+#: a snapped design is taken when its objective is at most this much worse (relative)
+SNAP_LOSS = 1e-9
+#: the local scan around an extreme's best polished design: its half-width
+#: (unit box), its designs and the starts polished from it
+LOCAL_WIDTH, LOCAL_SCAN, LOCAL_STARTS = 0.05, 256, 2
 #: designs per Evaluator call
 BATCH = 256
 
@@ -88,7 +96,7 @@ def _polished(evaluator, term, starts: np.ndarray) -> tuple[list, list]:
     """(designs, runs): each start's polished end and its snapped version
     when that is feasible and no worse (both checked by the Evaluator)."""
     problem = DesignProblem(evaluator, [term])
-    got = polish_designs(problem, starts)
+    got = polish_designs(problem, starts, join=False)
     ends = [np.asarray(r["end"], dtype=float) for r in got["runs"]]
     if not ends:
         return [], got["runs"]
@@ -100,10 +108,34 @@ def _polished(evaluator, term, starts: np.ndarray) -> tuple[list, list]:
     out = []
     for j in range(n):
         fe, fs = f[j], f[n + j]
-        take = feas[n + j] and fs <= fe + 1e-12 * max(abs(fe), 1e-300)
+        take = feas[n + j] and fs <= fe + SNAP_LOSS * max(abs(fe), 1e-300)
         out.append(S[j] if take else E[j])
         got["runs"][j]["snapped"] = bool(take and not np.array_equal(S[j], E[j]))
     return out, got["runs"]
+
+
+def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
+    """A second round around the best of ``ends``: a fixed Sobol cloud (seed 0)
+    in the box of half-width :data:`LOCAL_WIDTH` (unit box) around it, its
+    :data:`LOCAL_STARTS` best feasible designs polished.  The feasible set
+    near the singularity constraint is broken into narrow pockets; the next
+    pocket is often a little better."""
+    if not ends:
+        return [], []
+    E = np.array(ends)
+    vals, _, feas = evaluate_batches(evaluator, E)
+    f = np.where(feas, np.asarray(term_value(term, vals), dtype=float), np.inf)
+    if not np.isfinite(f).any():
+        return [], []
+    xl, w = evaluator.xl, evaluator.xu - evaluator.xl
+    c = (E[int(np.argmin(f))] - xl) / w
+    U = qmc.Sobol(d=len(c), scramble=True, seed=0).random_base2(int(math.log2(LOCAL_SCAN)))
+    U = np.clip(c + LOCAL_WIDTH * (2.0 * U - 1.0), 0.0, 1.0)
+    X = xl + w * U
+    v, _, ok = evaluate_batches(evaluator, X)
+    g = np.where(ok, np.asarray(term_value(term, v), dtype=float), np.inf)
+    S = distinct_best(X, g, LOCAL_STARTS, 0.01, evaluator.xl, evaluator.xu)
+    return _polished(evaluator, term, S) if len(S) else ([], [])
 
 
 def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
@@ -124,6 +156,8 @@ def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
             if not len(S):
                 continue
             got, rec = _polished(evaluator, term, S)
+            more, rec2 = _local_round(evaluator, term, got)
+            got, rec = got + more, rec + rec2
             found += got
             labels += ["multistart"] * len(got)
             runs[f"{k}.{sense}"] = [{"start": r["start"], "end": r["end"], "start_value": r["start_value"],
