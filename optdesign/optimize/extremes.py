@@ -162,6 +162,7 @@ def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
             labels += ["multistart"] * len(got)
             runs[f"{k}.{sense}"] = [{"start": r["start"], "end": r["end"], "start_value": r["start_value"],
                                      "end_value": r["end_value"], "iterations": r["iterations"],
+                                     "evaluations": r["evaluations"],
                                      "snapped": r.get("snapped", False), "message": r["message"]} for r in rec]
     P = np.array(found).reshape(-1, X.shape[1])
     pv, _, pf = evaluate_batches(evaluator, P)
@@ -170,6 +171,7 @@ def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
     VA = {k: np.concatenate([pv[k][pf], vf[k]]) for k in evaluator.index_names}
     lab = [lb for lb, ok in zip(labels, pf) if ok] + ["extremes scan"] * len(Xf)
     obs = observed(evaluator, XA, VA, lab) if len(XA) else {}
-    return {"stage": "extremes", "kind": "extremes", "evaluations": int(len(X) + 2 * len(P) + len(P)),
+    return {"stage": "extremes", "kind": "extremes", "evaluations": int(len(X) + 3 * len(P) + LOCAL_SCAN * len(runs)
+                                                         + sum(r["evaluations"] for v in runs.values() for r in v)),
             "scan": int(len(X)), "feasible_designs": int(feas.sum()), "starts": int(starts),
             "runs": runs, "observed": obs}
