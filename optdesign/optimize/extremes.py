@@ -35,7 +35,7 @@ from .polish import distinct_best, polish_designs, term_value
 from .problem import DesignProblem, index_term
 from .refine import observed
 
-__all__ = ["extremes_scan", "run_extremes", "snap", "evaluate_batches", "SNAP"]
+__all__ = ["scan_size", "extremes_scan", "run_extremes", "snap", "evaluate_batches", "SNAP"]
 
 #: a coordinate this close to a bound (unit box) is put on it
 SNAP = 1e-6
@@ -46,6 +46,11 @@ SNAP_LOSS = 1e-9
 LOCAL_WIDTH, LOCAL_SCAN, LOCAL_STARTS = 0.05, 256, 2
 #: designs per Evaluator call
 BATCH = 256
+
+
+def scan_size(n: int) -> int:
+    """Sobol designs of a scan of ``n``: the power of two at or above it."""
+    return 2 ** max(0, math.ceil(math.log2(max(n, 1))))
 
 
 def extremes_scan(xl: np.ndarray, xu: np.ndarray, n: int) -> np.ndarray:

@@ -40,7 +40,7 @@ from .progress import Progress
 from .algorithms import seed_count
 from .final import final_results
 from .normalization import bounds_of, fold_extremes
-from .extremes import run_extremes
+from .extremes import run_extremes, scan_size
 from .prescan import best_designs, run_prescan
 from .results import finished_stage, rows_csv, stage_summary
 from .stage import run_stage
@@ -167,28 +167,17 @@ def _extremes_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, seed: int
                     progress: Progress | None, manifest: bool) -> dict:
     """The seed-free multi-start of the normalization extremes (:mod:`.extremes`)."""
     opt, prog = cfg.optimizer, progress or Progress(False)
-    names = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
-    total = extremes_size(opt)
-
-    def batch(k, n):
-        prog.update(k, None)
+    total = scan_size(opt.extremes_scan)
     prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
     try:
-        res = run_extremes(evaluator, names, opt.extremes_starts, opt.extremes_scan, on_batch=batch)
+        res = run_extremes(evaluator, [k for k in cfg.indices if opt.weights.get(k, 0) > 0], opt.extremes_starts,
+                           opt.extremes_scan, on_batch=lambda k, n: prog.update(min(k, total), None))
         prog.update(total, res)
     finally:
         prog.finish()
     folder.stage_dir(st.name)
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
-
-
-def extremes_size(opt) -> int:
-    """Designs of the extremes stage's scan (a power of two, the corners and centre included)."""
-    import math
-
-    m = 2 ** max(0, math.ceil(math.log2(max(opt.extremes_scan, 1))))
-    return m
 
 
 def describe_row(cfg: Config, st: Stage, rec: dict) -> str:
@@ -233,7 +222,7 @@ def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
     if st.kind == "prescan":
         return 1, prescan_size(opt)
     if st.kind == "extremes":
-        return 1, extremes_size(opt)
+        return 1, scan_size(opt.extremes_scan)
     if st.kind == "pareto":
         return opt.pareto_generations, opt.pareto_population
     return opt.generations, opt.population
