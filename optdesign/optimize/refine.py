@@ -4,7 +4,9 @@ extreme index values it has seen (for the normalization).
 * :func:`refine_single` -- a single-objective stage (an index's minimum or
   maximum, a weighted sum): SLSQP from several distinct starts (the GA's
   best designs and the stage's seeds), the best polished design if it is
-  feasible and no worse than the GA's, and the optimality measure there;
+  feasible and no worse than the GA's (snapped onto the bounds it lies
+  within 1e-6 of, unit box, when that stays feasible and no worse than
+  1e-9 relative), and the optimality measure there;
 * :func:`refine_front` -- a Pareto stage: every front design polished by the
   Pascoletti-Serafini scalarization (it can only move towards designs that
   dominate it), then the non-dominated ones kept;
@@ -73,6 +75,7 @@ def refine_single(problem, algorithm, seeds: np.ndarray, starts: int, maxiter: i
     x, f, by = x_ga, f_ga, "ga"
     if res["best"] is not None and res["best"][1] < f_ga:
         x, f, by = res["best"][0], res["best"][1], "polish"
+        x, f = _snapped_single(problem, x, f)
     rec = {"starts": len(start), "ga_objective": f_ga, "objective": f, "improvement": f_ga - f,
            "relative_improvement": (f_ga - f) / abs(f_ga) if f_ga != 0 else 0.0, "route": res["route"],
            "route_reason": res["route_reason"], "derivative_evaluations": res["evaluations"], "runs": res["runs"],
@@ -112,10 +115,27 @@ def refine_front(problem, X: np.ndarray, F: np.ndarray, maxiter: int = 20, refer
     return Xs[keep], Fs[keep], rec
 
 
+def _snapped_single(problem, x, f: float):
+    """(x, f) snapped onto the bounds within SNAP when the snapped design is
+    feasible and at most SNAP_LOSS (relative) worse."""
+    from .extremes import SNAP_LOSS, snap
+
+    ev = problem.evaluate_designs
+    xs = snap(x, ev.xl, ev.xu)
+    if np.array_equal(xs, x):
+        return x, f
+    out: dict = {}
+    problem._evaluate(xs[None, :], out)
+    fs = float(out["F"][0, 0])
+    if np.all(out["G"][0] <= 0) and fs <= f + SNAP_LOSS * max(abs(f), 1e-300):
+        return xs, fs
+    return x, f
+
+
 def _snapped_point(problem, x, f):
     """(x, F) snapped onto the bounds within SNAP when the Evaluator finds the
-    snapped design feasible and no worse in any objective."""
-    from .extremes import snap
+    snapped design feasible and no worse in any objective (to SNAP_LOSS relative)."""
+    from .extremes import SNAP_LOSS, snap
 
     ev = problem.evaluate_designs
     xs = snap(x, ev.xl, ev.xu)
@@ -124,7 +144,7 @@ def _snapped_point(problem, x, f):
     out: dict = {}
     problem._evaluate(xs[None, :], out)
     fs = out["F"][0]
-    if np.all(out["G"][0] <= 0) and np.all(fs <= f + 1e-12 * np.maximum(np.abs(f), 1e-300)):
+    if np.all(out["G"][0] <= 0) and np.all(fs <= f + SNAP_LOSS * np.maximum(np.abs(f), 1e-300)):
         return xs, fs
     return x, f
 
