@@ -89,13 +89,15 @@ def build_algorithm(opt, n_obj: int = 1, which: str | None = None, seeds=None):
     settings ``opt`` (``de``, ``paper_ga`` or ``pymoo_ga``), or NSGA-II/III
     (``which``), and the callback its operators need after each generation
     (the paper GA's adaptive mutation) or None.  ``seeds`` (k, n): designs
-    the initial population of a single-objective search starts with."""
+    the initial population starts with (a single-objective search: the
+    pre-scan's best for its objective; a Pareto run: the pre-scan's
+    non-dominated designs, at most half its population)."""
     sampling = SeededSampling(seeds)
     if which == "nsga2":
-        return NSGA2(pop_size=opt.pareto_population), None
+        return NSGA2(pop_size=opt.pareto_population, sampling=sampling), None
     if which == "nsga3":
         ref = reference_directions(n_obj, opt.pareto_population)
-        return NSGA3(ref_dirs=ref, pop_size=max(opt.pareto_population, len(ref)),
+        return NSGA3(ref_dirs=ref, pop_size=max(opt.pareto_population, len(ref)), sampling=sampling,
                      selection=TournamentSelection(func_comp=cv_then_random)), None
     if which is not None:
         raise ValueError(f"unknown algorithm {which!r}; expected one of {', '.join(ALGORITHMS)}")

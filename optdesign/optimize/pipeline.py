@@ -42,6 +42,7 @@ from .final import final_results
 from .normalization import bounds_of, fold_extremes
 from .extremes import run_extremes, scan_size
 from .prescan import best_designs, run_prescan
+from .refine import front_seeds
 from .results import finished_stage, rows_csv, stage_summary
 from .stage import run_stage
 from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
@@ -120,8 +121,9 @@ def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluat
     else:
         terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
         terms += [extra_term(e, evaluator.extra[e].sense) for e in opt.extra_objectives]
-        return (DesignProblem(evaluator, terms), opt.pareto_generations,
-                lambda: build_algorithm(opt, len(terms), st.algorithm))
+        problem = DesignProblem(evaluator, terms)   # its first population: the pre-scan's best trade-offs
+        first = front_seeds(problem, seeds, opt.pareto_population // 2)
+        return problem, opt.pareto_generations, lambda: build_algorithm(opt, len(terms), st.algorithm, seeds=first)
     return DesignProblem(evaluator, terms), opt.generations, lambda: build_algorithm(opt, seeds=seeds)
 
 

@@ -20,7 +20,8 @@ from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
 from .polish import distinct_best, optimality, polish_designs, polish_front_point
 
-__all__ = ["refine_single", "refine_front", "observed", "merge_observed", "front_population", "non_dominated"]
+__all__ = ["refine_single", "refine_front", "observed", "merge_observed", "front_population", "non_dominated",
+           "front_seeds"]
 
 
 def non_dominated(F: np.ndarray, by: np.ndarray | None = None) -> np.ndarray:
@@ -34,6 +35,26 @@ def non_dominated(F: np.ndarray, by: np.ndarray | None = None) -> np.ndarray:
         dom = np.array([np.any(np.all(B <= f, axis=1) & np.any(B < f, axis=1)) for f in F[keep]])
         keep = keep[~dom]
     return keep
+
+
+def front_seeds(problem, X, k: int) -> np.ndarray | None:
+    """At most ``k`` feasible non-dominated designs among X (the pre-scan's) for
+    a multi-objective ``problem``, spread evenly along the first objective:
+    the designs a Pareto stage's first population starts with (None: none)."""
+    if X is None or not len(X) or k <= 0:
+        return None
+    X = np.asarray(X, dtype=float)
+    out: dict = {}
+    problem._evaluate(X, out)
+    ok = np.all(out["G"] <= 0, axis=1)
+    if not ok.any():
+        return None
+    X, F = X[ok], out["F"][ok]
+    nd = non_dominated(F)
+    nd = nd[np.lexsort((np.arange(len(nd)), F[nd, 0]))]
+    if len(nd) > k:
+        nd = nd[np.unique(np.round(np.linspace(0, len(nd) - 1, k)).astype(int))]
+    return X[nd]
 
 
 def front_population(algorithm):
