@@ -31,7 +31,7 @@ OPTIMIZATION_CONFIGS = sorted(p for p in CONFIGS.glob("*.yaml")
 def test_the_paper_plan():
     names = [s.name for s in stage_plan(load_config(PAPER))]
     assert names == ["prescan", "single_dynamic_min", "single_dynamic_max", "single_stiffness_min", "single_stiffness_max",
-                     "single_isotropy_min", "single_isotropy_max", "weighted_sum", "weighted_sum_literal",
+                     "single_isotropy_min", "single_isotropy_max", "extremes", "weighted_sum", "weighted_sum_literal",
                      "pareto_nsga2", "pareto_nsga3"]
 
 
@@ -52,7 +52,9 @@ def test_plan_follows_the_config(path):
     assert [s.algorithm for s in plan if s.kind == "pareto"] == (list(opt.pareto_algorithms) if n_obj >= 2 else [])
     # the weighted sums come after every single run, the fronts last (the order stages are taken in)
     kinds = [s.kind for s in plan]
-    assert kinds == sorted(kinds, key=["prescan", "single", "weighted", "pareto"].index)
+    assert kinds == sorted(kinds, key=["prescan", "single", "extremes", "weighted", "pareto"].index)
+    # the seed-free multi-start of the extremes: with the polish only
+    assert kinds.count("extremes") == int(bool(weighted) and opt.polish > 0 and opt.extremes_starts > 0)
     assert len({s.name for s in plan}) == len(plan)
     seeds = [stage_seed(opt.seed, i) for i in range(len(plan))]
     assert len(set(seeds)) == len(seeds) and all(0 <= s < 2 ** 32 for s in seeds)
@@ -61,7 +63,7 @@ def test_plan_follows_the_config(path):
     lo = {k: 1.0 for k in weighted}
     hi = {k: 2.0 for k in weighted}
     for st in plan:
-        if st.kind == "prescan":
+        if st.kind in ("prescan", "extremes"):
             continue
         prob, gens, factory = stage_problem(cfg, st, lo, hi, ev)
         alg, cb = factory()
@@ -84,7 +86,7 @@ def test_plan_follows_the_config(path):
             if st.algorithm == "nsga2":
                 assert type(alg) is NSGA2 and alg.pop_size == opt.pareto_population
             else:
-                assert type(alg) is NSGA3 and alg.pop_size >= len(reference_directions(n_obj))
+                assert type(alg) is NSGA3 and alg.pop_size >= len(reference_directions(n_obj, opt.pareto_population)) >= opt.pareto_population
         # the paper GA's adaptive mutation comes with its callback; the other algorithms need none
         assert (cb is not None) == (st.kind != "pareto" and opt.algorithm == "paper_ga")
 
@@ -107,7 +109,7 @@ def test_an_index_of_weight_zero_gets_no_single_run_but_stays_a_front_objective(
 def test_one_minimized_index_no_literal_stage_and_no_front():
     text = edited_text((DATA / "p4s_tiny.yaml").read_text(), {"indices: {dynamic: {}, stiffness: {}}": "indices: {dynamic: {}}"})
     plan = stage_plan(parse_config(text, source="one.yaml"))
-    assert [s.name for s in plan] == ["prescan", "single_dynamic_min", "single_dynamic_max", "weighted_sum"]
+    assert [s.name for s in plan] == ["prescan", "single_dynamic_min", "single_dynamic_max", "extremes", "weighted_sum"]
 
 
 def test_the_optimizer_layer_knows_vectors_not_mechanisms():

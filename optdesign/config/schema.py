@@ -65,6 +65,9 @@ class OptimizerSpec:
     prescan: int | None = None     # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none;
                                    # None: the smaller of 2048 and population x generations
     polish: int = 3                # starts of the gradient polish after each stage; 0 = no polish
+    extremes_starts: int = 4       # polished starts per extreme of the seed-free multi-start (optimize.extremes);
+                                   # 0 = none; off whenever polish is 0
+    extremes_scan: int = 4096      # designs of its seed-free Sobol scan (rounded up to a power of two)
 
 
 @dataclass

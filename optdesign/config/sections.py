@@ -29,7 +29,7 @@ _NOT_FOR = {
 OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
             "mutation_probability", "seed", "weights", "pareto",
             "extra_objectives", "singularity_threshold", "stroke_limits", "prescan", "polish",
-            "checkpoint_interval", "worst_case", "constraint_margin"}
+            "checkpoint_interval", "worst_case", "constraint_margin", "extremes"}
 #: keys of earlier versions that had no effect: refused in a new config, ignored in a run folder's
 REMOVED_OPT_KEYS = {
     "normalization": "every term is normalized so that 0 is best, and the literal eq. 38 runs as its own stage",
@@ -239,6 +239,13 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
         kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
     if "polish" in opt:
         kw["polish"] = r.integer(opt["polish"], f"{path}.polish", minimum=0, maximum=100)
+    if "extremes" in opt and opt["extremes"] is not None:
+        em = r.mapping(opt["extremes"], f"{path}.extremes")
+        r.only(em, f"{path}.extremes", {"starts", "scan"})
+        if "starts" in em:
+            kw["extremes_starts"] = r.integer(em["starts"], f"{path}.extremes.starts", minimum=0, maximum=100)
+        if "scan" in em:
+            kw["extremes_scan"] = r.integer(em["scan"], f"{path}.extremes.scan", minimum=1, maximum=1_000_000)
     if "checkpoint_interval" in opt:
         kw["checkpoint_interval"] = r.number(opt["checkpoint_interval"], f"{path}.checkpoint_interval", nonneg=True)
     return OptimizerSpec(**kw)

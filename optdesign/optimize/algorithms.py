@@ -16,6 +16,8 @@ where there is no tie it draws exactly what pymoo's does.
 """
 from __future__ import annotations
 
+from math import comb
+
 import numpy as np
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.algorithms.moo.nsga3 import NSGA3
@@ -49,11 +51,15 @@ def cv_then_random(pop, P, random_state=None, **kwargs):
     return S[:, None].astype(int)
 
 
-def reference_directions(n_obj: int) -> np.ndarray:
-    """Das-Dennis directions (deterministic) for NSGA-III: 40 partitions for 2
-    objectives, 12 for 3, 7 for 4, 5 beyond."""
-    parts = {2: 40, 3: 12, 4: 7}.get(n_obj, 5)
-    return get_reference_directions("das-dennis", n_obj, n_partitions=parts)
+def reference_directions(n_obj: int, population: int = 100) -> np.ndarray:
+    """Das-Dennis directions (deterministic) for NSGA-III: the fewest
+    partitions whose directions are at least ``population`` (NSGA-III keeps
+    about one design per direction, so fewer directions than designs would
+    shrink its front)."""
+    p = 1
+    while comb(p + n_obj - 1, n_obj - 1) < max(int(population), 1):
+        p += 1
+    return get_reference_directions("das-dennis", n_obj, n_partitions=p)
 
 
 class SeededSampling(FloatRandomSampling):
@@ -83,13 +89,15 @@ def build_algorithm(opt, n_obj: int = 1, which: str | None = None, seeds=None):
     settings ``opt`` (``de``, ``paper_ga`` or ``pymoo_ga``), or NSGA-II/III
     (``which``), and the callback its operators need after each generation
     (the paper GA's adaptive mutation) or None.  ``seeds`` (k, n): designs
-    the initial population of a single-objective search starts with."""
+    the initial population starts with (a single-objective search: the
+    pre-scan's best for its objective; a Pareto run: the pre-scan's
+    non-dominated designs, at most half its population)."""
     sampling = SeededSampling(seeds)
     if which == "nsga2":
-        return NSGA2(pop_size=opt.pareto_population), None
+        return NSGA2(pop_size=opt.pareto_population, sampling=sampling), None
     if which == "nsga3":
-        ref = reference_directions(n_obj)
-        return NSGA3(ref_dirs=ref, pop_size=max(opt.pareto_population, len(ref)),
+        ref = reference_directions(n_obj, opt.pareto_population)
+        return NSGA3(ref_dirs=ref, pop_size=max(opt.pareto_population, len(ref)), sampling=sampling,
                      selection=TournamentSelection(func_comp=cv_then_random)), None
     if which is not None:
         raise ValueError(f"unknown algorithm {which!r}; expected one of {', '.join(ALGORITHMS)}")

@@ -3,7 +3,8 @@
 Every stage reports the smallest and largest value of each index among its
 feasible designs (``observed`` in its result.json, see :mod:`.refine`).  The
 extremes are folded in the plan's order (so they do not depend on ``jobs``):
-the pre-scan, then the single-objective stages (their GA and their polish) --
+the pre-scan, then the single-objective stages (their GA and their polish)
+and the seed-free multi-start (:mod:`.extremes`) --
 these give the extremes the weighted sums are run with -- then every later
 stage (weighted sums, Pareto fronts), whose values beyond a recorded extreme
 update it (``found_by: later stage``), and last the config's named designs
@@ -32,7 +33,7 @@ def fold_extremes(stages: dict, upto_singles: bool = False) -> tuple[dict, list[
     changes: list[dict] = []
     for name, res in stages.items():
         kind = res.get("kind")
-        if kind in ("prescan", "single"):
+        if kind in ("prescan", "single", "extremes"):
             merge_observed(ext, res.get("observed") or {}, name)
         elif not upto_singles:
             for k, sense, old, new in merge_observed(ext, res.get("observed") or {}, name, relabel="later stage"):

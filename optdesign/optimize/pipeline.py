@@ -40,7 +40,9 @@ from .progress import Progress
 from .algorithms import seed_count
 from .final import final_results
 from .normalization import bounds_of, fold_extremes
+from .extremes import run_extremes, scan_size
 from .prescan import best_designs, run_prescan
+from .refine import front_seeds
 from .results import finished_stage, rows_csv, stage_summary
 from .stage import run_stage
 from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
@@ -52,7 +54,7 @@ __all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "st
 @dataclass
 class Stage:
     name: str
-    kind: str                      # "prescan" | "single" | "weighted" | "pareto"
+    kind: str                      # "prescan" | "single" | "extremes" | "weighted" | "pareto"
     index: str | None = None
     sense: str | None = None       # for single: "min" gives the index's minimum, "max" its maximum
     algorithm: str | None = None   # for pareto
@@ -65,12 +67,28 @@ def stage_plan(cfg: Config) -> list[Stage]:
     plan = [Stage("prescan", "prescan")] if prescan_size(opt) > 0 else []
     for k in names:
         plan += [Stage(f"single_{k}_min", "single", k, "min"), Stage(f"single_{k}_max", "single", k, "max")]
+    if names and opt.polish > 0 and opt.extremes_starts > 0:
+        plan.append(Stage("extremes", "extremes"))
     plan.append(Stage("weighted_sum", "weighted"))
     if any(cfg.indices[k].sense == "max" for k in names):
         plan.append(Stage("weighted_sum_literal", "weighted", literal=True))
     if len(cfg.indices) + len(opt.extra_objectives) >= 2:
         plan += [Stage(f"pareto_{a}", "pareto", algorithm=a) for a in opt.pareto_algorithms]
     return plan
+
+
+def numbered(plan: list[Stage]) -> list[tuple[int, Stage]]:
+    """(i, stage) of the plan: ``i`` the stage's number for its seed, counted
+    without the seed-free extremes stage (numbered -1), so that adding it
+    leaves every other stage's seed as it was."""
+    out, i = [], 0
+    for st in plan:
+        if st.kind == "extremes":
+            out.append((-1, st))
+        else:
+            out.append((i, st))
+            i += 1
+    return out
 
 
 def prescan_size(opt) -> int:
@@ -103,8 +121,9 @@ def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluat
     else:
         terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
         terms += [extra_term(e, evaluator.extra[e].sense) for e in opt.extra_objectives]
-        return (DesignProblem(evaluator, terms), opt.pareto_generations,
-                lambda: build_algorithm(opt, len(terms), st.algorithm))
+        problem = DesignProblem(evaluator, terms)   # its first population: the pre-scan's best trade-offs
+        first = front_seeds(problem, seeds, opt.pareto_population // 2)
+        return problem, opt.pareto_generations, lambda: build_algorithm(opt, len(terms), st.algorithm, seeds=first)
     return DesignProblem(evaluator, terms), opt.generations, lambda: build_algorithm(opt, seeds=seeds)
 
 
@@ -113,6 +132,8 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
                   evaluator: Evaluator | None = None, manifest: bool = True, seeds=None) -> dict:
     """Run (or resume) stage ``i`` of the plan and write its files."""
     evaluator = evaluator or Evaluator.from_config(cfg, ws)
+    if st.kind == "extremes":
+        return _extremes_stage(cfg, folder, st, i, seed, evaluator, progress, manifest)
     if st.kind == "prescan":
         prog = progress or Progress(False)
 
@@ -140,6 +161,23 @@ def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, h
         progress.note(f"{st.name}: polishing")
     res = stage_summary(folder, st, alg, problem, evaluator, history, seeds, cfg.optimizer.polish,
                         display=lambda rows, s: _display(cfg, rows, s))
+    folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
+    return res
+
+
+def _extremes_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, seed: int, evaluator: Evaluator,
+                    progress: Progress | None, manifest: bool) -> dict:
+    """The seed-free multi-start of the normalization extremes (:mod:`.extremes`)."""
+    opt, prog = cfg.optimizer, progress or Progress(False)
+    total = scan_size(opt.extremes_scan)
+    prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
+    try:
+        res = run_extremes(evaluator, [k for k in cfg.indices if opt.weights.get(k, 0) > 0], opt.extremes_starts,
+                           opt.extremes_scan, on_batch=lambda k, n: prog.update(min(k, total), None))
+        prog.update(total, res)
+    finally:
+        prog.finish()
+    folder.stage_dir(st.name)
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
 
@@ -172,6 +210,8 @@ def describe_result(cfg: Config, st: Stage, res: dict) -> str:
         return _f_text(res["objective"])
     if st.kind == "pareto":
         return f"{res.get('front_size', '?')} non-dominated"
+    if st.kind == "extremes" and "runs" in res:
+        return f"{len(res['runs'])} extremes polished from {res.get('feasible_designs', '?')} feasible designs"
     if st.kind == "prescan" and "feasible_designs" in res:
         return f"{res['feasible_designs']} of {res.get('evaluations', '?')} designs feasible"
     return ""
@@ -183,6 +223,8 @@ def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
     opt = cfg.optimizer
     if st.kind == "prescan":
         return 1, prescan_size(opt)
+    if st.kind == "extremes":
+        return 1, scan_size(opt.extremes_scan)
     if st.kind == "pareto":
         return opt.pareto_generations, opt.pareto_population
     return opt.generations, opt.population
@@ -212,6 +254,9 @@ def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evalua
     """The designs a single-objective stage starts from: the pre-scan's best for
     its objective (a tenth of the population) and, for a weighted sum, the
     single-objective stages' answers; None for the other stages."""
+    if st.kind == "pareto":   # the pre-scan's feasible designs: the front is filtered against them
+        pre = stages.get("prescan")
+        return pre["designs"] if pre and pre.get("designs") else None
     if st.kind not in ("single", "weighted"):
         return None
     problem, _, _ = stage_problem(cfg, st, lo, hi, evaluator)
@@ -254,6 +299,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     stages = {}
     singles = [st.name for st in plan if st.kind == "single"]
     first = [st.name for st in plan if st.kind == "prescan"]
+    extremes = [st.name for st in plan if st.kind == "extremes"]
     weighted_names = [k for k in cfg.indices if cfg.optimizer.weights.get(k, 0) > 0]
     try:
         ws = workspace_of(cfg)
@@ -273,7 +319,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             return lo, hi, stage_seeds(cfg, st, ordered, lo, hi, evaluator)
 
         todo = []   # in the plan's order; finished stages (a resumed run) are taken as they are
-        for i, st in enumerate(plan):
+        for i, st in numbered(plan):
             done = finished_stage(folder, st, stage_seed(seed, i))
             todo.append((i, st)) if done is None else record(st, done)
         progress.plan([(st.name, *stage_work(cfg, st)) for st in plan], done=list(stages))
@@ -282,9 +328,9 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             """The next stage that can start (every stage after the pre-scan, the
             weighted sums once the single runs are done), or None."""
             for n, (i, st) in enumerate(todo):
-                if st.kind != "prescan" and not all(s in stages for s in first):
+                if st.kind not in ("prescan", "extremes") and not all(s in stages for s in first):
                     continue
-                if st.kind != "weighted" or all(s in stages for s in singles):
+                if st.kind != "weighted" or all(s in stages for s in singles + extremes):
                     return todo.pop(n)
             return None
 

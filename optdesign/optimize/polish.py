@@ -182,9 +182,10 @@ def _objective(term, pt, f0: float, width):
     return fun, jac
 
 
-def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str = "auto") -> dict:
+def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str = "auto", join: bool = True) -> dict:
     """Polish each start (feasible designs (k, n)) for the single objective of
-    ``problem`` (a DesignProblem with one term).  Returns ``best`` (x, value,
+    ``problem`` (a DesignProblem with one term); ``join``: stop a start that
+    comes within :data:`JOIN` of where an earlier one ended.  Returns ``best`` (x, value,
     or None when no start improved), ``runs`` (per start: start and end
     value, iterations, evaluations, message) and ``evaluations``."""
     ev = problem.evaluate_designs
@@ -200,7 +201,7 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
 
         calls = pt.calls
         cons = {"type": "ineq", "fun": lambda u: pt.constraints(u, False), "jac": lambda u: pt.constraints(u)[1]}
-        ends = [(np.asarray(r["end"]) - xl) / width for r in runs]
+        ends = [(np.asarray(r["end"]) - xl) / width for r in runs] if join else []
         joined = []
 
         def meet(u):

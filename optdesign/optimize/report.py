@@ -283,7 +283,8 @@ def extremes_lines(cfg: Config, results: dict) -> list[str]:
                    + (" (the optimum was polished again with them)." if "with_final_extremes" in results.get("polish", {})
                       else "."))
     else:
-        out.append("- No later stage went beyond the extremes of the pre-scan and the single-objective stages.")
+        out.append("- No later stage went beyond the extremes of the pre-scan, the single-objective stages and the "
+                   "seed-free multi-start (stage `extremes`, when the polish is on).")
     out.append("- Every normalized term of a feasible design of the box lies in [0, 1] on these extremes, so the "
                f"weighted sum lies in [0, {_f(sum(v['weight'] for v in norm.values()), 2)}] (the sum of the weights).")
     return out

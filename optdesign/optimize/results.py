@@ -9,7 +9,7 @@ import numpy as np
 from pymoo.indicators.hv import HV
 
 from ..runs import RunFolder, RunFolderError
-from .refine import merge_observed, observed, refine_front, refine_single
+from .refine import front_population, non_dominated, merge_observed, observed, refine_front, refine_single
 
 __all__ = ["rows_csv", "population_rows", "stage_summary", "check_stage_result", "finished_stage",
            "place_against_front"]
@@ -116,13 +116,19 @@ def stage_summary(folder: RunFolder, stage, algorithm, problem, evaluator, histo
             res["sense"] = stage.sense
             res["value"] = res["indices"][stage.index] if feasible else None
     else:
-        opt = algorithm.opt
-        opt = opt[opt.get("CV")[:, 0] <= 0]
+        opt = front_population(algorithm)
         X, F = opt.get("X", "F") if len(opt) else (np.zeros((0, problem.n_var)), np.zeros((0, problem.n_obj)))
-        pol_obs = {}
+        pol_obs, ref = {}, None
+        if len(seeds) and len(X):   # the pre-scan's feasible designs: no reported point is dominated by one
+            out0: dict = {}
+            problem._evaluate(seeds, out0)
+            ref = out0["F"][np.all(out0["G"] <= 0, axis=1)]
         if polish > 0 and len(opt):
-            X, F, rec = refine_front(problem, X, F)
+            X, F, rec = refine_front(problem, X, F, reference=ref)
             res["polish"] = rec
+        elif len(X):
+            keep = non_dominated(F, ref)
+            X, F = X[keep], F[keep]
         if len(X):
             rows, out = _rows_of(evaluator, problem, X)
             pol_obs = observed(evaluator, X, {k: out[f"index_{k}"] for k in evaluator.index_names},
@@ -149,6 +155,8 @@ def check_stage_result(res: dict, stage, path) -> dict:
               and all(isinstance(x, list) and len(x) == len(names) and all(_num(v) and math.isfinite(v) for v in x)
                       for x in X)
               and all(isinstance(v, list) and len(v) == len(X) and all(_num(a) for a in v) for v in vals.values()))
+    elif ok and stage.kind == "extremes":
+        ok = isinstance(res.get("runs"), dict)
     elif ok and stage.kind in ("single", "weighted"):
         d = res.get("design")
         ok = (isinstance(res.get("feasible"), bool) and _num(res.get("objective"), True)

@@ -18,9 +18,9 @@ import time
 
 import numpy as np
 from pymoo.core.callback import Callback
-from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
 from ..runs import RunFolder, RunFolderError
+from .refine import front_population
 from .checkpoint import CheckpointError, capture, restore
 from .workers import Interrupted
 
@@ -51,15 +51,9 @@ def history_row(algorithm, generation: int, index_names, free) -> dict:
         for j, name in enumerate(free):
             rec[f"best_{name}"] = float(best.X[j])
     else:
-        # the front the stage reports (the algorithm's feasible optimum: NSGA-III keeps
-        # one design per reference direction of its non-dominated ones), so that the
-        # count during the run is the one its result names
-        opt = algorithm.opt
-        if opt is not None and len(opt):
-            rec["front_size"] = int(np.sum(opt.get("CV")[:, 0] <= 0))
-        else:
-            nds = NonDominatedSorting().do(F[feas], only_non_dominated_front=True) if feas.any() else []
-            rec["front_size"] = int(len(nds))
+        # the front the stage reports (its feasible non-dominated designs, before the
+        # polish), so that the count during the run is the one its result names
+        rec["front_size"] = int(len(front_population(algorithm)))
         for j, t in enumerate(problem.terms):
             rec[f"best_{t.label()}"] = float(np.min(F[feas, j])) if feas.any() else float("nan")
     return rec
