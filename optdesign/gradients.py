@@ -74,9 +74,42 @@ class Derivatives:
 
 
 # ---------------------------------------------------------------------- index derivatives
+def _clean(A):
+    """(A with every non-finite matrix replaced by a copy of the identity's
+    shape, mask (...,) of those matrices): LAPACK never sees NaN or inf (its
+    SVD does not converge on them); their results are set to NaN after."""
+    bad = ~np.all(np.isfinite(A), axis=(-1, -2))
+    if not bad.any():
+        return A, bad
+    eye = np.eye(A.shape[-2], A.shape[-1])
+    return np.where(bad[..., None, None], eye, A), bad
+
+
 def _svd_parts(A):
+    A, bad = _clean(np.asarray(A, float))
     U, s, Vt = np.linalg.svd(A)
+    if bad.any():
+        U, s, Vt = (np.where(bad[..., None, None], np.nan, U), np.where(bad[..., None], np.nan, s),
+                    np.where(bad[..., None, None], np.nan, Vt))
     return U, s, Vt
+
+
+def _solve(A, B):
+    """solve(A, B) per matrix; NaN where A is non-finite or exactly singular (no LinAlgError)."""
+    A, bad = _clean(np.asarray(A, float))
+    with np.errstate(all="ignore"):
+        bad = bad | (np.linalg.det(A) == 0)
+    X = np.linalg.solve(np.where(bad[..., None, None], np.eye(A.shape[-1]), A), B)
+    return np.where(bad[..., None, None], np.nan, X)
+
+
+def _inv(A):
+    """inv(A) per matrix; NaN for a non-finite or exactly singular one (no LinAlgError)."""
+    A, bad = _clean(np.asarray(A, float))
+    with np.errstate(all="ignore"):
+        bad = bad | (np.linalg.det(A) == 0)
+    Ai = np.linalg.inv(np.where(bad[..., None, None], np.eye(A.shape[-1]), A))
+    return np.where(bad[..., None, None], np.nan, Ai)
 
 
 def _dsigma(U, Vt, dA, k):
@@ -87,7 +120,7 @@ def _dsigma(U, Vt, dA, k):
 def _dfro_cond(A, dA):
     """(cond_F, d cond_F) of square A: ||A||_F ||A^-1||_F, d||A||^2 = 2 <A, dA>,
     d||A^-1||^2 = -2 <A^-1, A^-1 dA A^-1>."""
-    Ai = np.linalg.inv(A)
+    Ai = _inv(A)
     a = np.sum(A * A, axis=(-1, -2))
     b = np.sum(Ai * Ai, axis=(-1, -2))
     da = 2.0 * np.einsum("...ij,...ijp->...p", A, dA)
@@ -131,10 +164,10 @@ def local_derivative(kind: str, convention: str | None, options: dict, J, dJ, M=
         Jt = np.swapaxes(J, -1, -2)
         if kind == "manipulability":
             G = J @ Jt
-            W = np.linalg.solve(G, J)                       # G^-1 J
+            W = _solve(G, J)                       # G^-1 J
         else:
             G = Jt @ J
-            W = np.swapaxes(np.linalg.solve(G, Jt), -1, -2)  # J H^-1
+            W = np.swapaxes(_solve(G, Jt), -1, -2)  # J H^-1
         m = np.sqrt(np.maximum(np.linalg.det(G), 0.0))
         return m, m[..., None] * np.einsum("...ij,...ijp->...p", W, dJ)
     if kind == "axis_stiffness":
@@ -256,7 +289,7 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
         if needs_M or not _close(J[reach], Je[reach]):
             return "the CasADi Jacobian differs from the mechanism's"
         Tm = np.full_like(J, np.nan)
-        Tm[reach] = np.linalg.solve(J[reach], Jm_f[reach])          # E^-1, a map of the pose alone
+        Tm[reach] = _solve(J[reach], Jm_f[reach])          # E^-1, a map of the pose alone
         dJ = np.einsum("nikp,nkj->nijp", dJ, Tm)
     M = dM = None
     if needs_M:
@@ -265,11 +298,11 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
         Mp = _columns(outs[3], model.dof, n, model.dof)
         dMp = _vec_columns(outs[4], model.dof, model.dof, n, nf)
         Jr = Jm_f[reach]
-        if not _close(np.linalg.solve(np.swapaxes(Jr, -1, -2), Mp[reach]), Mm[reach]):
+        if not _close(_solve(np.swapaxes(Jr, -1, -2), Mp[reach]), Mm[reach]):
             return "the CasADi mass matrix differs from the mechanism's"
         dM = np.full(dMp.shape, np.nan)
         rhs = dMp[reach] - np.einsum("nkip,nkj->nijp", dJ[reach], Mm[reach])
-        dM[reach] = np.linalg.solve(np.swapaxes(Jr, -1, -2)[:, None], rhs.transpose(0, 3, 1, 2)).transpose(0, 2, 3, 1)
+        dM[reach] = _solve(np.swapaxes(Jr, -1, -2)[:, None], rhs.transpose(0, 3, 1, 2)).transpose(0, 2, 3, 1)
         M = Mm
     shape = (D, N)
     rs = lambda a: None if a is None else a.reshape(shape + a.shape[1:])  # noqa: E731

@@ -109,9 +109,11 @@ def test_nothing_imports_the_cli():
     ("optdesign.worstcase", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # config validates against the mechanisms' declarations, the workspace spec and the index kinds
     ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # statistics over W of a population's local indices (compiled path or numpy), no config
+    ("optdesign.statistics", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices")),
     # evaluate: the one place that builds mechanisms from a config
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature",
-                            "optdesign.indices", "optdesign.worstcase")),
+                            "optdesign.indices", "optdesign.worstcase", "optdesign.statistics")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
     ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
                              "optdesign.indices", "optdesign.worstcase")),
@@ -132,7 +134,7 @@ def test_layers_import_only_what_lies_below(layer, allowed):
 
 
 def test_no_config_below_evaluate():
-    for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices", "optdesign.worstcase", "optdesign.linalg",
+    for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices", "optdesign.worstcase", "optdesign.statistics", "optdesign.linalg",
                   "optdesign.fast"):
         for name, path in MODULES:
             if _under(name, layer):
