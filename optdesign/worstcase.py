@@ -36,6 +36,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from .indices import local_index
+from .mechanisms.base import IndexRequest
 from .workspace import Workspace
 
 __all__ = ["region", "maximize", "local_functions", "worst_over_w", "worst_poses", "q_range", "STARTS", "ITERATIONS", "TOL"]
@@ -108,16 +109,17 @@ def _project(u: np.ndarray, reg: dict) -> np.ndarray:
 
 def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
              starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
-             active: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+             active: np.ndarray | None = None, method: str = "zoom") -> tuple[np.ndarray, np.ndarray]:
     """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
     designs, whose values at the workspace points ``ws.X`` are ``sampled``
     (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
     (index (M,): the design of each start) returns the quantity
     ``f(X) -> (K, M)`` at poses X (K, M, dof) (SI) of those designs (see
     :func:`local_functions`).  ``active`` (D,) bool: the designs to search
-    (the others keep their sampled maximum).  Each ascent step costs one call
-    of ``f`` on 1 + f poses per start: the trial pose and its forward
-    differences (kept when the trial gains)."""
+    (the others keep their sampled maximum).  ``method``: ``"zoom"`` (the
+    default, :func:`_zoom`: one call of ``f`` per level on 3^f - 1 poses per
+    start) or ``"ascent"`` (:func:`_ascent`, the earlier search: one call per
+    step on 1 + f poses per start; kept for benchmarks/bench_worstcase.py)."""
     sampled = np.where(np.isnan(sampled), np.inf, sampled)
     D, N = sampled.shape
     X0 = ws.X
@@ -139,63 +141,17 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     worst = _diverse_worst(sampled[d_idx], (X0[:, axes] - lo) / width, k)
     design = np.repeat(d_idx, k)                       # (M,) the design of each start
     start_pts = worst.reshape(-1)
-    cache = {}
     base = X0[start_pts].copy()                        # (M, dof) the fixed axes stay
     u = (base[:, axes] - lo) / width
     val = sampled[design, start_pts].copy()
-    n_free = axes.size
-    step = np.full(design.size, 0.5 * max(N, 2) ** (-1.0 / n_free))
-    eye = np.eye(n_free) * H
-
-    def probe(uu, rows):
-        """The quantity (1 + f, M) at uu (M, f) and at its forward neighbours
-        (backward at an upper bound), evaluated for the starts ``rows`` (M,)
-        bool only (-inf elsewhere); (points (1 + f, M, f), values, gradient (M, f))."""
-        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
-        P = np.stack([_project(q, reg) for q in nb])
-        v = np.full(P.shape[:2], -np.inf)
-        r = np.flatnonzero(rows)
-        if r.size:
-            key = r.tobytes()
-            if key not in cache:            # one mechanism of the live starts' designs, until the set shrinks
-                cache.clear()
-                cache[key] = make(design[r])
-            X = np.broadcast_to(base[r], (P.shape[0], r.size) + base.shape[1:]).copy()
-            X[..., axes] = lo + P[:, r] * width
-            with np.errstate(all="ignore"):
-                vr = np.asarray(cache[key](X), float)
-            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
-        with np.errstate(all="ignore"):
-            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
-        return P, v, np.where(np.isfinite(g), g, 0.0)
-
-    def settle(P, v, rows):
-        """Starts whose probe met a pose past the stop (or not finite) take it and end."""
-        vmax = v.max(axis=0)
-        hit = rows & ~(vmax < stop) & (vmax > val)
-        if hit.any():
-            jj = np.argmax(v, axis=0)
-            h = np.flatnonzero(hit)
-            u[h] = P[jj[h], h]
-            val[h] = vmax[h]
-        return hit
-
-    live = np.isfinite(val) & (val < stop)
-    P, v, g = probe(u, live)
-    live &= ~settle(P, v, live)
-    for _ in range(iterations):
-        norm = np.sqrt(np.sum(g * g, axis=1))
-        live &= norm > 0                                # a flat point (zero gradient): stationary
-        if not live.any():
-            break
-        d = g / np.maximum(norm, 1e-300)[:, None]
-        trial = _project(u + step[:, None] * d, reg)
-        P, v, gt = probe(trial, live)
-        gain = live & (v[0] > val)
-        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
-        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
-        live &= ~settle(P, v, live)         # a probed pose past the stop, gained or not
-        live &= np.isfinite(val) & (val < stop) & (step >= tol)
+    spacing = max(N, 2) ** (-1.0 / axes.size)          # the samples' spacing (unit coordinates)
+    quantity = _Quantity(make, design, base, reg)
+    if method == "ascent":
+        _ascent(quantity, u, val, spacing, stop, iterations, tol)
+    elif method == "zoom":
+        _zoom(quantity, u, val, spacing, stop, tol)
+    else:
+        raise ValueError(f"method {method!r}: expected 'zoom' or 'ascent'")
     # the best start of each design
     found = np.full(D, -np.inf)
     np.maximum.at(found, design, val)
@@ -209,6 +165,105 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     return best, pose
 
 
+class _Quantity:
+    """The quantity at unit coordinates P (K, M, f) of the starts ``rows``
+    (M,) bool: (K, M) values (inf for NaN, -inf at the other starts); one
+    mechanism of the live starts' designs, rebuilt when that set changes."""
+
+    def __init__(self, make, design, base, reg):
+        self.make, self.design, self.base, self.reg = make, design, base, reg
+        self.key, self.f = None, None
+
+    def __call__(self, P, rows):
+        v = np.full(P.shape[:2], -np.inf)
+        r = np.flatnonzero(rows)
+        if r.size:
+            key = r.tobytes()
+            if key != self.key:
+                self.key, self.f = key, self.make(self.design[r])
+            reg = self.reg
+            X = np.broadcast_to(self.base[r], (P.shape[0], r.size) + self.base.shape[1:]).copy()
+            X[..., reg["axes"]] = reg["lo"] + P[:, r] * (reg["hi"] - reg["lo"])
+            with np.errstate(all="ignore"):
+                vr = np.asarray(self.f(X), float)
+            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
+        return v
+
+
+def _settle(P, v, rows, u, val, stop):
+    """Starts whose poses P (K, M, f) met a value (K, M) past the stop (or not
+    finite) take it and end: the bool (M,) of those."""
+    vmax = v.max(axis=0)
+    hit = rows & ~(vmax < stop) & (vmax > val)
+    if hit.any():
+        jj = np.argmax(v, axis=0)
+        h = np.flatnonzero(hit)
+        u[h] = P[jj[h], h]
+        val[h] = vmax[h]
+    return hit
+
+
+def _zoom(quantity, u, val, spacing, stop, tol):
+    """The zoom search, in place on the starts' unit coordinates u (M, f) and
+    values val (M,): each level evaluates the 3^f - 1 neighbours of every
+    live start at offsets of -h, 0, h per axis (projected into W), in one call
+    of the quantity, moves each start to its best pose if that gains, and
+    halves h; h starts at half the samples' spacing (the levels reach a whole
+    spacing from the start) and the search ends below ``tol`` / 4 (unit
+    coordinates)."""
+    n_free = u.shape[1]
+    grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
+    grid = grid[np.any(grid != 0, axis=1)]              # (3^f - 1, f): the centre is known
+    live = np.isfinite(val) & (val < stop)
+    h = 0.5 * spacing
+    while h >= 0.25 * tol and live.any():
+        P = np.stack([_project(u + h * g, quantity.reg) for g in grid])
+        v = quantity(P, live)
+        live &= ~_settle(P, v, live, u, val, stop)
+        j = np.argmax(v, axis=0)
+        vj = v[j, np.arange(v.shape[1])]
+        gain = live & (vj > val)
+        u[gain], val[gain] = P[j[gain], np.flatnonzero(gain)], vj[gain]
+        h *= 0.5
+
+
+def _ascent(quantity, u, val, spacing, stop, iterations, tol):
+    """The projected gradient ascent (the earlier search), in place on u (M, f)
+    and val (M,): forward differences in unit coordinates (backward at an
+    upper bound), a step along the normalized gradient that doubles on a gain
+    and halves otherwise, from half the samples' spacing, until it is below
+    ``tol`` or after ``iterations`` steps."""
+    reg = quantity.reg
+    n_free = u.shape[1]
+    step = np.full(u.shape[0], 0.5 * spacing)
+    eye = np.eye(n_free) * H
+
+    def probe(uu, rows):
+        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
+        P = np.stack([_project(q, reg) for q in nb])
+        v = quantity(P, rows)
+        with np.errstate(all="ignore"):
+            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
+        return P, v, np.where(np.isfinite(g), g, 0.0)
+
+    live = np.isfinite(val) & (val < stop)
+    P, v, g = probe(u, live)
+    live &= ~_settle(P, v, live, u, val, stop)
+    for _ in range(iterations):
+        norm = np.sqrt(np.sum(g * g, axis=1))
+        live &= norm > 0                                # a flat point (zero gradient): stationary
+        if not live.any():
+            break
+        d = g / np.maximum(norm, 1e-300)[:, None]
+        trial = _project(u + step[:, None] * d, reg)
+        P, v, gt = probe(trial, live)
+        gain = live & (v[0] > val)
+        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
+        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
+        live &= ~_settle(P, v, live, u, val, stop)      # a probed pose past the stop, gained or not
+        live &= np.isfinite(val) & (val < stop) & (step >= tol)
+
+
 def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray],
                     kind: str = "isotropy", convention: str | None = None, stroke: bool = False) -> dict:
     """The local quantities of a population for :func:`maximize`, each a
@@ -217,16 +272,25 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
     the Jacobian by ``convention``, inf where the pose is not reachable) and,
     with ``stroke``, ``"q_max"`` and ``"q_min_neg"`` (the largest actuator
     value and minus the smallest, inf where not reachable).  ``designs`` maps
-    parameters to arrays (D,)."""
+    parameters to arrays (D,).  The condition number comes from the
+    mechanism's compiled path (``Mechanism.local_values_at``) where it has
+    one, else from the numpy path."""
     designs = {k: np.asarray(v, float) for k, v in designs.items()}
 
     def mech_of(index):
         return mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
 
+    request = IndexRequest("cond", kind, convention)
+
     def cond(index):
         m = mech_of(index)
 
         def f(X):
+            fast = m.local_values_at([request], np.swapaxes(X, 0, 1))
+            if fast is not None:       # the compiled path: each start's design at its own poses
+                vals, reach = fast
+                c, reach = vals["cond"].T, reach.T
+                return np.where(reach & np.isfinite(c), c, np.inf)
             with np.errstate(all="ignore"):
                 reach = np.asarray(m.reachable(X), bool)
                 J = m.index_matrices(X, {"J"})["J"]
