@@ -1,7 +1,8 @@
 """What the worst case over the continuous W costs: one Evaluator call on a
 population of p4s_tradeoff (the population loop's unit of work) with
 ``optimizer.worst_case`` on, as a ratio to the same call with it off (the
-sampled maxima), in one process, interleaved.
+sampled maxima), for the zoom search (the default) and the earlier gradient
+ascent (``method="ascent"``), in one process.
 
     python benchmarks/bench_worstcase.py [--config configs/p4s_tradeoff.yaml] [--repeats 7]
 
@@ -9,8 +10,10 @@ The populations are Sobol designs of the config's bounds (a first
 generation) and the same designs pulled halfway to the 'after' design (a
 later, more feasible one).  Prints per population: the designs the search
 ran for (those the samples find feasible), the seconds of each mode (the
-smallest of the repeats), the ratio, how many designs the search turned
-infeasible, and the machine's load average.  No timing is asserted anywhere.
+smallest of the repeats), the ratios zoom / off and ascent / zoom, how many
+designs each search turned infeasible, the largest relative difference of
+the two searches' maxima of cond (where both are below the stop), and the
+machine's load average.  No timing is asserted anywhere.
 """
 from __future__ import annotations
 
@@ -28,8 +31,9 @@ from optdesign.evaluate import Evaluator
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _time(ev, X, on: bool, repeats: int) -> tuple[float, dict]:
-    ev.worst_case = on
+def _time(ev, X, mode: str, repeats: int) -> tuple[float, dict]:
+    ev.worst_case = mode != "off"
+    ev.worst_case_method = mode if mode != "off" else "zoom"
     best, res = np.inf, None
     for _ in range(repeats):
         t = time.perf_counter()
@@ -52,24 +56,31 @@ def main() -> None:
     after = ev.vector({**ev.defaults, **cfg.design("after")}) if "after" in cfg.designs else (ev.xl + ev.xu) / 2
     print(f"config {cfg.name}: W {ev.workspace.n} samples, limit {ev.threshold:g} (optimized against "
           f"{ev.limit:g}, margin {ev.margin:g})")
-    print(f"{'population':<22} {'D':>4} {'searched':>8} {'off s':>8} {'on s':>8} {'ratio':>7} {'rejected':>8}")
-    ratios = []
+    print(f"{'population':<13} {'D':>3} {'searched':>8} {'off s':>7} {'zoom s':>7} {'ascent s':>8} {'zoom/off':>8} "
+          f"{'ascent/zoom':>11} {'rejected z/a':>12} {'max rel diff':>12}")
+    ratios, gains = [], []
     for D in (cfg.optimizer.population, cfg.optimizer.pareto_population):
         U = qmc.Sobol(len(ev.free), seed=1).random(D)
         X1 = ev.xl + U * (ev.xu - ev.xl)
         for label, X in ((f"sobol {D}", X1), (f"halfway {D}", (X1 + after) / 2)):
-            _time(ev, X, False, 1), _time(ev, X, True, 1)            # warm (compiled paths)
-            t_off, r_off = _time(ev, X, False, args.repeats)
-            t_on, r_on = _time(ev, X, True, args.repeats)
-            f_off, f_on = _feasible(r_off), _feasible(r_on)
-            searched = int(np.sum((r_off["constraints"]["singularity"] <= 0) & (r_off["constraints"]["reach"] <= 0)))
-            ratios.append(t_on / t_off)
-            print(f"{label:<22} {D:>4} {searched:>8} {t_off:>8.4f} {t_on:>8.4f} {t_on / t_off:>7.1f} "
-                  f"{int(np.sum(f_off & ~f_on)):>8}")
+            for mode in ("off", "zoom", "ascent"):
+                _time(ev, X, mode, 1)                                      # warm (compiled paths)
+            t, r = {}, {}
+            for mode in ("off", "zoom", "ascent"):
+                t[mode], r[mode] = _time(ev, X, mode, args.repeats)
+            f = {m: _feasible(r[m]) for m in r}
+            searched = int(np.sum((r["off"]["constraints"]["singularity"] <= 0) & (r["off"]["constraints"]["reach"] <= 0)))
+            cz, ca = (r[m]["constraints"]["singularity"] + 1.0 for m in ("zoom", "ascent"))
+            both = (cz < 2.0 / (1 - ev.margin)) & (ca < 2.0 / (1 - ev.margin))
+            diff = float(np.max(np.abs(cz[both] - ca[both]) / ca[both])) if both.any() else float("nan")
+            ratios.append(t["zoom"] / t["off"])
+            gains.append(t["ascent"] / t["zoom"])
+            print(f"{label:<13} {D:>3} {searched:>8} {t['off']:>7.4f} {t['zoom']:>7.4f} {t['ascent']:>8.4f} "
+                  f"{ratios[-1]:>8.1f} {gains[-1]:>11.1f} "
+                  f"{int(np.sum(f['off'] & ~f['zoom'])):>5} / {int(np.sum(f['off'] & ~f['ascent'])):<4} {diff:>12.1e}")
     load = os.getloadavg()
-    print(f"ratio worst case on / off: {min(ratios):.1f} to {max(ratios):.1f}; load average "
-          f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores")
-
+    print(f"zoom / off: {min(ratios):.1f} to {max(ratios):.1f}; ascent / zoom: {min(gains):.1f} to {max(gains):.1f}; "
+          f"load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores")
 
 if __name__ == "__main__":
     main()

@@ -304,6 +304,7 @@ class Evaluator:
         self.threshold = float(threshold)
         self.stroke_limits = stroke_limits
         self.worst_case = bool(worst_case)
+        self.worst_case_method = "zoom"         # or "ascent" (the earlier search, for benchmarks)
         self.margin = float(margin)
         self.limit = self.threshold * (1.0 - self.margin)
         self.extra = {k: mechanism.extra_objectives[k] for k in extra}
@@ -373,7 +374,8 @@ class Evaluator:
         if self.worst_case:
             req = next(r for r in self.requests_all if r.name == (self._cond or _COND))
             cmax, Q = worstcase.worst_over_w(self.mechanism, self.fixed, designs, self.workspace, req, self.limit,
-                                             cmax, frac, Q, self.stroke_limits, self.margin)
+                                             cmax, frac, Q, self.stroke_limits, self.margin,
+                                             self.worst_case_method)
         cons = {
             "reach": 1.0 - frac,
             "singularity": np.where(np.isfinite(cmax), cmax / self.limit - 1.0, 1.0),

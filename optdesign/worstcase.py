@@ -217,7 +217,7 @@ def _zoom(quantity, u, val, spacing, stop, tol):
     live = np.isfinite(val) & (val < stop)
     h = 0.5 * spacing
     while h >= 0.25 * tol and live.any():
-        P = np.stack([_project(u + h * g, quantity.reg) for g in grid])
+        P = _project((u[None] + h * grid[:, None]).reshape(-1, n_free), quantity.reg).reshape(grid.shape[0], -1, n_free)
         v = quantity(P, live)
         live &= ~_settle(P, v, live, u, val, stop)
         j = np.argmax(v, axis=0)
@@ -265,7 +265,8 @@ def _ascent(quantity, u, val, spacing, stop, iterations, tol):
 
 
 def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray],
-                    kind: str = "isotropy", convention: str | None = None, stroke: bool = False) -> dict:
+                    kind: str = "isotropy", convention: str | None = None, stroke: bool = False,
+                    compiled: bool = True) -> dict:
     """The local quantities of a population for :func:`maximize`, each a
     factory ``make(index) -> f(X)`` (one mechanism of the designs ``index``
     (M,), poses X (K, M, dof) -> (K, M)): ``"cond"`` (the condition number of
@@ -274,7 +275,7 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
     value and minus the smallest, inf where not reachable).  ``designs`` maps
     parameters to arrays (D,).  The condition number comes from the
     mechanism's compiled path (``Mechanism.local_values_at``) where it has
-    one, else from the numpy path."""
+    one (and ``compiled``), else from the numpy path."""
     designs = {k: np.asarray(v, float) for k, v in designs.items()}
 
     def mech_of(index):
@@ -286,7 +287,7 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
         m = mech_of(index)
 
         def f(X):
-            fast = m.local_values_at([request], np.swapaxes(X, 0, 1))
+            fast = m.local_values_at([request], np.swapaxes(X, 0, 1)) if compiled else None
             if fast is not None:       # the compiled path: each start's design at its own poses
                 vals, reach = fast
                 c, reach = vals["cond"].T, reach.T
@@ -321,10 +322,14 @@ def q_range(Q) -> tuple[np.ndarray, np.ndarray]:
         return np.nanmin(F, axis=(-1, -2)), np.nanmax(F, axis=(-1, -2))
 
 
-def _sampled_cond(mech, X: np.ndarray, request, D: int) -> np.ndarray:
+def _sampled_cond(mech, X: np.ndarray, request, D: int, serial: bool = True) -> np.ndarray:
     """The local condition numbers (D, N) at the samples, inf where not
-    reachable: the compiled path's local values when it has them."""
-    fast = mech.local_values([request], X)
+    reachable: the compiled path's local values when it has them (with
+    ``serial`` its serial kernel of each design at its own points, cheaper for
+    a population than the parallel one's start-up)."""
+    fast = mech.local_values_at([request], np.broadcast_to(X, (D,) + X.shape)) if serial else None
+    if fast is None:
+        fast = mech.local_values([request], X)
     with np.errstate(all="ignore"):
         if fast is not None:
             vals, reach = fast
@@ -340,7 +345,7 @@ def _sampled_cond(mech, X: np.ndarray, request, D: int) -> np.ndarray:
 
 def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
                  request, limit: float, cmax: np.ndarray, reach_fraction: np.ndarray, Q=None,
-                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0):
+                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "zoom"):
     """The maxima over W of the local constraints of a population (what the
     Evaluator's constraints need): ``(max cond (D,), (min q, max q) (D,) or
     None)``.  ``cmax`` and ``Q`` (D, N, n_act) are the samples' values; the
@@ -348,7 +353,9 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
     reachable, cond <= ``limit``, the strokes within the limits narrowed by
     ``margin`` times their span); the others are infeasible already and keep
     their sampled values.  ``request`` is the conditioning index request (its
-    kind and convention are those of the sampled index)."""
+    kind and convention are those of the sampled index); ``method`` that of
+    :func:`maximize` (``"ascent"``: the earlier search as it was, on the numpy
+    path's quantities, for benchmarks/bench_worstcase.py)."""
     cmax = np.array(cmax, float)
     ok = (reach_fraction >= 1.0) & np.isfinite(cmax) & (cmax <= limit)
     qr = q_range(Q) if Q is not None else None
@@ -361,9 +368,11 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
         return cmax, qr
     sub = {k: np.asarray(v, float)[idx] for k, v in designs.items()}
     mech = mechanism(**{**fixed, **{k: v[:, None] for k, v in sub.items()}})
-    sampled = _sampled_cond(mech, ws.X, request, idx.size)
-    fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None)
-    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit)
+    new = method != "ascent"                # "ascent": the earlier search as it was, numpy quantities
+    sampled = _sampled_cond(mech, ws.X, request, idx.size, serial=new)
+    fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None,
+                         compiled=new)
+    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method)
     cmax[idx] = np.maximum(cmax[idx], found)
     if qr is not None:
         qn, qx = qr[0].copy(), qr[1].copy()
@@ -372,8 +381,8 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
             fin = np.all(np.isfinite(Qs), axis=-1)
             top = np.where(fin, np.max(Qs, axis=-1), np.inf)
             neg = np.where(fin, np.max(-Qs, axis=-1), np.inf)
-        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top)[0])
-        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg)[0])
+        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top, method=method)[0])
+        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg, method=method)[0])
         qr = (qn, qx)
     return cmax, qr
 

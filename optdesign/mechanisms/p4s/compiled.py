@@ -264,13 +264,22 @@ def local_values(mech, requests, X):
     return out, reach
 
 
+def _once(mech, key, func):
+    """``func(mech)``, kept on the mechanism (its parameters do not change):
+    the worst-case search calls :func:`local_values_at` once per level."""
+    memo = mech.__dict__.setdefault("_compiled_memo", {})
+    if key not in memo:
+        memo[key] = func(mech)
+    return memo[key]
+
+
 def p4s_pairs(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Local values of each design d of ``mech`` at its own points X[d]
     (D, K, 3), as :func:`p4s_local` (dict of (D, K), reachable (D, K))."""
     k = LOCAL.require()
     X = np.ascontiguousarray(X, dtype=float)
     D, K = X.shape[:2]
-    vals, codes = k.p4s_pairs(design_constants(mech), X, bool(two_norm))
+    vals, codes = k.p4s_pairs(_once(mech, "constants", design_constants), X, bool(two_norm))
     reach = codes != 0
     vals = np.where(reach[None], vals, np.nan)
     dd, kk = np.nonzero(codes == 2)
@@ -289,7 +298,7 @@ def local_values_at(mech, requests, X):
     if not enabled():
         return None
     rows = plan(requests)
-    D = _n_designs(mech)
+    D = _once(mech, "count", _n_designs)
     X = np.asarray(X, dtype=float)
     if not rows or D is None or X.ndim != 3 or X.shape[0] != D or X.shape[2] != 3 or LOCAL.get() is None:
         return None
