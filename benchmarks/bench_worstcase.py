@@ -36,6 +36,7 @@ def _time(ev, X, mode: str, repeats: int) -> tuple[float, dict]:
     ev.worst_case_method = mode if mode != "off" else "zoom"
     best, res = np.inf, None
     for _ in range(repeats):
+        ev._memo.clear()                   # every repeat searches (the Evaluator keeps the designs it has seen)
         t = time.perf_counter()
         res = ev(X)
         best = min(best, time.perf_counter() - t)
