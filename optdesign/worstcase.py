@@ -147,9 +147,9 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     spacing = max(N, 2) ** (-1.0 / axes.size)          # the samples' spacing (unit coordinates)
     quantity = _Quantity(make, design, base, reg)
     if method == "ascent":
-        _ascent(quantity, u, val, spacing, stop, iterations, tol)
+        _ascent(quantity, u, val, np.full(design.size, 0.5 * spacing), stop, iterations, tol)
     elif method == "zoom":
-        _zoom(quantity, u, val, spacing, stop, tol)
+        _zoom(quantity, u, val, spacing, stop, tol, iterations)
     else:
         raise ValueError(f"method {method!r}: expected 'zoom' or 'ascent'")
     # the best start of each design
@@ -203,39 +203,44 @@ def _settle(P, v, rows, u, val, stop):
     return hit
 
 
-def _zoom(quantity, u, val, spacing, stop, tol):
-    """The zoom search, in place on the starts' unit coordinates u (M, f) and
-    values val (M,): each level evaluates the 3^f - 1 neighbours of every
-    live start at offsets of -h, 0, h per axis (projected into W), in one call
-    of the quantity, moves each start to its best pose if that gains, and
-    halves h; h starts at half the samples' spacing (the levels reach a whole
-    spacing from the start) and the search ends below ``tol`` / 4 (unit
-    coordinates)."""
+def _zoom(quantity, u, val, spacing, stop, tol, iterations):
+    """The zoom search (a pattern search), in place on the starts' unit
+    coordinates u (M, f) and values val (M,): each level evaluates the
+    3^f - 1 neighbours of every live start at offsets of -h, 0, h per axis
+    (projected into W), all starts in one call of the quantity, and moves each
+    start to its best neighbour if that gains (keeping its h), else halves
+    its h; h starts at half the samples' spacing, a start ends when its h is
+    below ``tol`` (unit coordinates), its value passes ``stop`` or is not
+    finite (infeasible), or after ``iterations`` levels."""
     n_free = u.shape[1]
     grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
     grid = grid[np.any(grid != 0, axis=1)]              # (3^f - 1, f): the centre is known
+    cols = np.arange(u.shape[0])
+    h = np.full(u.shape[0], 0.5 * spacing)
     live = np.isfinite(val) & (val < stop)
-    h = 0.5 * spacing
-    while h >= 0.25 * tol and live.any():
-        P = _project((u[None] + h * grid[:, None]).reshape(-1, n_free), quantity.reg).reshape(grid.shape[0], -1, n_free)
+    for _ in range(iterations):
+        if not live.any():
+            break
+        P = _project((u[None] + h[None, :, None] * grid[:, None]).reshape(-1, n_free),
+                     quantity.reg).reshape(grid.shape[0], -1, n_free)
         v = quantity(P, live)
-        live &= ~_settle(P, v, live, u, val, stop)
         j = np.argmax(v, axis=0)
-        vj = v[j, np.arange(v.shape[1])]
+        vj = v[j, cols]
         gain = live & (vj > val)
-        u[gain], val[gain] = P[j[gain], np.flatnonzero(gain)], vj[gain]
-        h *= 0.5
+        u[gain], val[gain] = P[j[gain], cols[gain]], vj[gain]
+        h = np.where(gain, h, 0.5 * h)
+        live &= (val < stop) & (h >= tol)               # past the stop or not finite: infeasible, the search ends
 
 
-def _ascent(quantity, u, val, spacing, stop, iterations, tol):
+def _ascent(quantity, u, val, step, stop, iterations, tol):
     """The projected gradient ascent (the earlier search), in place on u (M, f)
     and val (M,): forward differences in unit coordinates (backward at an
     upper bound), a step along the normalized gradient that doubles on a gain
-    and halves otherwise, from half the samples' spacing, until it is below
-    ``tol`` or after ``iterations`` steps."""
+    and halves otherwise, from ``step`` (M,), until it is below ``tol`` or
+    after ``iterations`` steps."""
     reg = quantity.reg
     n_free = u.shape[1]
-    step = np.full(u.shape[0], 0.5 * spacing)
+    step = np.array(step, float)
     eye = np.eye(n_free) * H
 
     def probe(uu, rows):
