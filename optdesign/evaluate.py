@@ -307,7 +307,7 @@ class Evaluator:
         self.threshold = float(threshold)
         self.stroke_limits = stroke_limits
         self.worst_case = bool(worst_case)
-        self.worst_case_method = "zoom"         # or "ascent" (the earlier search, for benchmarks)
+        self.worst_case_method = "auto"         # or "ascent" (the earlier search, for benchmarks)
         self.margin = float(margin)
         self.limit = self.threshold * (1.0 - self.margin)
         self.extra = {k: mechanism.extra_objectives[k] for k in extra}

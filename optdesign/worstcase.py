@@ -36,7 +36,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from .indices import local_index
-from .mechanisms.base import IndexRequest
+from .mechanisms.base import IndexRequest, Mechanism
 from .workspace import Workspace
 
 __all__ = ["region", "maximize", "local_functions", "worst_over_w", "worst_poses", "q_range", "STARTS", "ITERATIONS", "TOL"]
@@ -47,6 +47,8 @@ STARTS = 3
 ITERATIONS = 30
 #: the search of a start ends when its step (unit coordinates of W) is below this
 TOL = 5e-4
+#: the zoom search's neighbours: all 3^f - 1 up to this many free axes, the 2 f along the axes beyond
+FULL_GRID = 3
 #: finite-difference step (unit coordinates of W)
 H = 1e-6
 
@@ -109,17 +111,19 @@ def _project(u: np.ndarray, reg: dict) -> np.ndarray:
 
 def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
              starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
-             active: np.ndarray | None = None, method: str = "zoom") -> tuple[np.ndarray, np.ndarray]:
+             active: np.ndarray | None = None, method: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
     designs, whose values at the workspace points ``ws.X`` are ``sampled``
     (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
     (index (M,): the design of each start) returns the quantity
     ``f(X) -> (K, M)`` at poses X (K, M, dof) (SI) of those designs (see
     :func:`local_functions`).  ``active`` (D,) bool: the designs to search
-    (the others keep their sampled maximum).  ``method``: ``"zoom"`` (the
-    default, :func:`_zoom`: one call of ``f`` per level on 3^f - 1 poses per
-    start) or ``"ascent"`` (:func:`_ascent`, the earlier search: one call per
-    step on 1 + f poses per start; kept for benchmarks/bench_worstcase.py)."""
+    (the others keep their sampled maximum).  ``method``: ``"zoom"``
+    (:func:`_zoom`: one call of ``f`` per level on 3^f - 1 poses per start),
+    ``"ascent"`` (:func:`_ascent`: one call per step on 1 + f poses per start)
+    or ``"auto"`` (the default): the zoom where ``make.compiled`` says the
+    quantity has a compiled path (many poses per call cost little there),
+    the ascent otherwise (fewer poses: on the numpy path the zoom costs more)."""
     sampled = np.where(np.isnan(sampled), np.inf, sampled)
     D, N = sampled.shape
     X0 = ws.X
@@ -146,6 +150,8 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     val = sampled[design, start_pts].copy()
     spacing = max(N, 2) ** (-1.0 / axes.size)          # the samples' spacing (unit coordinates)
     quantity = _Quantity(make, design, base, reg)
+    if method == "auto":
+        method = "zoom" if getattr(make, "compiled", False) else "ascent"
     if method == "ascent":
         _ascent(quantity, u, val, np.full(design.size, 0.5 * spacing), stop, iterations, tol)
     elif method == "zoom":
@@ -207,14 +213,18 @@ def _zoom(quantity, u, val, spacing, stop, tol, iterations):
     """The zoom search (a pattern search), in place on the starts' unit
     coordinates u (M, f) and values val (M,): each level evaluates the
     3^f - 1 neighbours of every live start at offsets of -h, 0, h per axis
-    (projected into W), all starts in one call of the quantity, and moves each
+    (projected into W; with more than ``FULL_GRID`` free axes the 2 f at -h
+    and h along each axis), all starts in one call of the quantity, and moves each
     start to its best neighbour if that gains (keeping its h), else halves
     its h; h starts at half the samples' spacing, a start ends when its h is
     below ``tol`` (unit coordinates), its value passes ``stop`` or is not
     finite (infeasible), or after ``iterations`` levels."""
     n_free = u.shape[1]
-    grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
-    grid = grid[np.any(grid != 0, axis=1)]              # (3^f - 1, f): the centre is known
+    if n_free <= FULL_GRID:
+        grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
+        grid = grid[np.any(grid != 0, axis=1)]          # (3^f - 1, f): the centre is known
+    else:                                               # (2 f, f): along the axes only
+        grid = np.concatenate([np.eye(n_free), -np.eye(n_free)])
     cols = np.arange(u.shape[0])
     h = np.full(u.shape[0], 0.5 * spacing)
     live = np.isfinite(val) & (val < stop)
@@ -304,6 +314,8 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
             return np.where(reach & np.isfinite(c), c, np.inf)
         return f
 
+    # the compiled path where the class has one (it may still decline: then the numpy path, correct but slower)
+    cond.compiled = compiled and getattr(mechanism, "local_values_at", None) is not Mechanism.local_values_at
     out = {"cond": cond}
     if stroke:
         def q(index, sign):
@@ -350,7 +362,7 @@ def _sampled_cond(mech, X: np.ndarray, request, D: int, serial: bool = True) -> 
 
 def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
                  request, limit: float, cmax: np.ndarray, reach_fraction: np.ndarray, Q=None,
-                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "zoom"):
+                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "auto"):
     """The maxima over W of the local constraints of a population (what the
     Evaluator's constraints need): ``(max cond (D,), (min q, max q) (D,) or
     None)``.  ``cmax`` and ``Q`` (D, N, n_act) are the samples' values; the
