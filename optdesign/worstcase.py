@@ -8,13 +8,15 @@ quantity over W by a continuous search:
 1. the ``starts`` worst samples of the evaluated points, each at least two
    sample spacings from the ones picked before (so that the starts lie on
    different hills), are the starting poses;
-2. from each, a projected gradient ascent over the free pose axes inside W's
-   bounds (a box: clipped to it; a cylinder: projected onto its disc),
-   vectorized over every (design, start) pair at once: forward differences
-   of the quantity in W's unit coordinates (evaluated with each trial pose,
-   in one call), a step along the normalized gradient that doubles when it
-   gains and halves when it does not, until the step falls below ``tol``
-   (unit coordinates) or ``iterations`` are spent;
+2. from each, a local search over the free pose axes inside W's bounds (a
+   box: clipped to it; a cylinder: projected onto its disc), vectorized over
+   every (design, start) pair at once, in W's unit coordinates: where the
+   quantity has a compiled path a zoom (pattern) search (:func:`_zoom`:
+   per level the 3^f - 1 neighbours at offsets -h, 0, h, in one call; h
+   halves where none gains), else a projected gradient ascent
+   (:func:`_ascent`: forward differences, a step along the normalized
+   gradient that doubles when it gains and halves when it does not), until
+   h or the step falls below ``tol`` or ``iterations`` are spent;
 3. a pair stops early once its value passes ``stop`` (the design is
    infeasible by a clear margin: its value is then a lower bound of the
    maximum, enough to reject it) or is not finite (an unreachable pose or an
@@ -24,9 +26,11 @@ The quantity is a factory ``make(index)`` of a callable ``f(X) -> (K, M)``:
 the value at poses X[:, m] (SI, (K, M, dof)) of design ``index[m]``, larger is
 worse, ``inf`` where the pose is not reachable (one mechanism instance of the
 M starts' designs serves the whole search).  :func:`local_functions` builds
-the conditioning and stroke quantities of a mechanism class for a population (the Jacobian from
-``Mechanism.index_matrices`` through :func:`optdesign.indices.local_index`,
-the same convention as the sampled index).  The answer of :func:`maximize`
+the conditioning and stroke quantities of a mechanism class for a population (cond
+from the compiled ``Mechanism.local_values_at`` where the class has it, else
+the Jacobian from ``Mechanism.index_matrices`` through
+:func:`optdesign.indices.local_index`; the same convention as the sampled
+index).  The answer of :func:`maximize`
 is never below the samples' maximum.
 """
 from __future__ import annotations

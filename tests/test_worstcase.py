@@ -45,10 +45,13 @@ def test_singular_between_the_samples_is_infeasible():
     assert _dense(ev, BETWEEN) > 1000.0                                         # and a dense grid agrees
 
 
+@pytest.mark.parametrize("method", ["auto", "ascent"])
 @pytest.mark.parametrize("path", [PAPER, DATA / "p4s_tiny.yaml"])
-def test_found_maximum_matches_a_dense_grid(path):
+def test_found_maximum_matches_a_dense_grid(path, method):
     """The search's maximum over W against a 401^2 grid, with the config's
-    cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2)."""
+    cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2),
+    by the default search (the zoom on the compiled path) and by the
+    gradient ascent on the numpy path."""
     cfg = load_config(path)
     ev = Evaluator.from_config(cfg)
     req = next(r for r in ev.requests_all if r.kind == "isotropy")
@@ -57,8 +60,10 @@ def test_found_maximum_matches_a_dense_grid(path):
     d = ev.designs(X)
     mech = ev.mechanism(**{**ev.fixed, **{k: v[:, None] for k, v in d.items()}})
     sampled = worstcase._sampled_cond(mech, ev.workspace.X, req, len(X))
-    f = worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention)["cond"]
-    found, pose = worstcase.maximize(f, ev.workspace, sampled)
+    f = worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention,
+                                  compiled=method == "auto")["cond"]
+    assert f.compiled == (method == "auto")                  # the 3-P(4S) has a compiled cond: the zoom
+    found, pose = worstcase.maximize(f, ev.workspace, sampled, method=method)
     for i in range(len(X)):
         dense = _dense(ev, X[i])
         assert found[i] >= dense * (1 - 1e-4)        # at least what the dense grid sees
