@@ -232,11 +232,14 @@ class Evaluator:
     With ``worst_case`` the maxima over W are those of the continuous search
     of :mod:`optdesign.worstcase` (from the worst samples, for every design
     that the samples find feasible; an unreachable pose it meets makes
-    ``singularity`` 1), else the samples' maxima.  ``threshold`` stays the
+    ``singularity`` 1; kept per design vector, so a design seen before is not
+    searched again), else the samples' maxima.  ``threshold`` stays the
     limit itself (the certificates' limit); ``limit`` is the tightened one.
     """
 
     CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
+    #: most design vectors whose worst case over W is kept (see :meth:`_worst_over_w`)
+    MEMO = 50_000
 
     def __init__(self, mechanism: type[Mechanism], fixed: Mapping[str, float], defaults: Mapping[str, float],
                  free: list[str], xl: np.ndarray, xu: np.ndarray, workspace: Workspace,
@@ -255,6 +258,7 @@ class Evaluator:
         self.threshold = float(threshold)
         self.stroke_limits = stroke_limits
         self.worst_case = bool(worst_case)
+        self.worst_case_method = "auto"         # or "ascent" (the earlier search, for benchmarks)
         self.margin = float(margin)
         self.limit = self.threshold * (1.0 - self.margin)
         self.extra = {k: mechanism.extra_objectives[k] for k in extra}
@@ -266,6 +270,7 @@ class Evaluator:
             self.requests_all = self.requests
         self.constraint_names = list(self.CONSTRAINTS[:3]) + (list(self.CONSTRAINTS[3:]) if stroke_limits else [])
         self.n_evaluations = 0
+        self._memo: dict = {}
 
     @classmethod
     def from_config(cls, config: Config, workspace: Workspace | None = None) -> "Evaluator":
@@ -306,6 +311,31 @@ class Evaluator:
         return float(vals.min()), float(vals.max())
 
     # ------------------------------------------------------------------ evaluation
+    def _worst_over_w(self, X, designs, cmax, frac, Q):
+        """:func:`optdesign.worstcase.worst_over_w` for the rows of X not seen
+        before (a GA's elites and repeated designs come back every
+        generation; a quarter of the reproduction's evaluations): the search's
+        maxima are kept per design vector (and search setting), at most
+        ``MEMO`` of them.  Returns ``(max cond (D,), (min q, max q) or None)``."""
+        setting = (self.worst_case_method, self.limit, self.margin, self.stroke_limits)
+        keys = [(setting, row.tobytes()) for row in np.ascontiguousarray(X, float)]
+        new = np.flatnonzero([k not in self._memo for k in keys])
+        if new.size:
+            req = next(r for r in self.requests_all if r.name == (self._cond or _COND))
+            c, q = worstcase.worst_over_w(self.mechanism, self.fixed, {k: v[new] for k, v in designs.items()},
+                                          self.workspace, req, self.limit, np.asarray(cmax)[new], frac[new],
+                                          None if Q is None else np.asarray(Q)[new], self.stroke_limits,
+                                          self.margin, self.worst_case_method)
+            if len(self._memo) + new.size > self.MEMO:
+                self._memo.clear()
+            for j, i in enumerate(new):
+                self._memo[keys[i]] = (c[j],) + ((q[0][j], q[1][j]) if q is not None else ())
+        found = np.array([self._memo[k] for k in keys], float).reshape(len(keys), -1)
+        return found[:, 0], ((found[:, 1], found[:, 2]) if Q is not None else None)
+
+    def __getstate__(self):
+        return {**self.__dict__, "_memo": {}}    # a copy for another process starts empty
+
     def __call__(self, X: np.ndarray) -> dict:
         check_size(self.workspace.n, np.atleast_2d(X).shape[0])
         designs = self.designs(X)
@@ -325,9 +355,7 @@ class Evaluator:
             with np.errstate(all="ignore"):
                 Q = mech.inverse(self.workspace.X)
         if self.worst_case:
-            req = next(r for r in self.requests_all if r.name == (self._cond or _COND))
-            cmax, Q = worstcase.worst_over_w(self.mechanism, self.fixed, designs, self.workspace, req, self.limit,
-                                             cmax, frac, Q, self.stroke_limits, self.margin)
+            cmax, Q = self._worst_over_w(np.atleast_2d(X), designs, cmax, frac, Q)
         cons = {
             "reach": 1.0 - frac,
             "singularity": np.where(np.isfinite(cmax), cmax / self.limit - 1.0, 1.0),

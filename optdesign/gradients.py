@@ -373,6 +373,10 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
             di = {k: v[i:i + 1] for k, v in designs.items()}
             mi = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in di.items()}})
             Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, poses[i][None], values_only)
+            if not (np.all(np.isfinite(Qi)) and np.all(np.isfinite(Ji))):     # an unreachable worst pose: a violation
+                c.append(1.0)
+                g.append(np.zeros(cgrads["singularity"].shape[-1]))
+                continue
             with np.errstate(all="ignore"):
                 v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
                 good = bool(np.all(np.isfinite(Qi)) and np.isfinite(v).all())

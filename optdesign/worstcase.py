@@ -8,13 +8,15 @@ quantity over W by a continuous search:
 1. the ``starts`` worst samples of the evaluated points, each at least two
    sample spacings from the ones picked before (so that the starts lie on
    different hills), are the starting poses;
-2. from each, a projected gradient ascent over the free pose axes inside W's
-   bounds (a box: clipped to it; a cylinder: projected onto its disc),
-   vectorized over every (design, start) pair at once: forward differences
-   of the quantity in W's unit coordinates (evaluated with each trial pose,
-   in one call), a step along the normalized gradient that doubles when it
-   gains and halves when it does not, until the step falls below ``tol``
-   (unit coordinates) or ``iterations`` are spent;
+2. from each, a local search over the free pose axes inside W's bounds (a
+   box: clipped to it; a cylinder: projected onto its disc), vectorized over
+   every (design, start) pair at once, in W's unit coordinates: where the
+   quantity has a compiled path a zoom (pattern) search (:func:`_zoom`:
+   per level the 3^f - 1 neighbours at offsets -h, 0, h, in one call; h
+   halves where none gains), else a projected gradient ascent
+   (:func:`_ascent`: forward differences, a step along the normalized
+   gradient that doubles when it gains and halves when it does not), until
+   h or the step falls below ``tol`` or ``iterations`` are spent;
 3. a pair stops early once its value passes ``stop`` (the design is
    infeasible by a clear margin: its value is then a lower bound of the
    maximum, enough to reject it) or is not finite (an unreachable pose or an
@@ -24,9 +26,11 @@ The quantity is a factory ``make(index)`` of a callable ``f(X) -> (K, M)``:
 the value at poses X[:, m] (SI, (K, M, dof)) of design ``index[m]``, larger is
 worse, ``inf`` where the pose is not reachable (one mechanism instance of the
 M starts' designs serves the whole search).  :func:`local_functions` builds
-the conditioning and stroke quantities of a mechanism class for a population (the Jacobian from
-``Mechanism.index_matrices`` through :func:`optdesign.indices.local_index`,
-the same convention as the sampled index).  The answer of :func:`maximize`
+the conditioning and stroke quantities of a mechanism class for a population (cond
+from the compiled ``Mechanism.local_values_at`` where the class has it, else
+the Jacobian from ``Mechanism.index_matrices`` through
+:func:`optdesign.indices.local_index`; the same convention as the sampled
+index).  The answer of :func:`maximize`
 is never below the samples' maximum.
 """
 from __future__ import annotations
@@ -36,6 +40,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from .indices import local_index
+from .mechanisms.base import IndexRequest, Mechanism
 from .workspace import Workspace
 
 __all__ = ["region", "maximize", "local_functions", "worst_over_w", "worst_poses", "q_range", "STARTS", "ITERATIONS", "TOL"]
@@ -46,6 +51,8 @@ STARTS = 3
 ITERATIONS = 30
 #: the search of a start ends when its step (unit coordinates of W) is below this
 TOL = 5e-4
+#: the zoom search's neighbours: all 3^f - 1 up to this many free axes, the 2 f along the axes beyond
+FULL_GRID = 3
 #: finite-difference step (unit coordinates of W)
 H = 1e-6
 
@@ -108,16 +115,19 @@ def _project(u: np.ndarray, reg: dict) -> np.ndarray:
 
 def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
              starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
-             active: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+             active: np.ndarray | None = None, method: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
     designs, whose values at the workspace points ``ws.X`` are ``sampled``
     (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
     (index (M,): the design of each start) returns the quantity
     ``f(X) -> (K, M)`` at poses X (K, M, dof) (SI) of those designs (see
     :func:`local_functions`).  ``active`` (D,) bool: the designs to search
-    (the others keep their sampled maximum).  Each ascent step costs one call
-    of ``f`` on 1 + f poses per start: the trial pose and its forward
-    differences (kept when the trial gains)."""
+    (the others keep their sampled maximum).  ``method``: ``"zoom"``
+    (:func:`_zoom`: one call of ``f`` per level on 3^f - 1 poses per start),
+    ``"ascent"`` (:func:`_ascent`: one call per step on 1 + f poses per start)
+    or ``"auto"`` (the default): the zoom where ``make.compiled`` says the
+    quantity has a compiled path (many poses per call cost little there),
+    the ascent otherwise (fewer poses: on the numpy path the zoom costs more)."""
     sampled = np.where(np.isnan(sampled), np.inf, sampled)
     D, N = sampled.shape
     X0 = ws.X
@@ -139,63 +149,19 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     worst = _diverse_worst(sampled[d_idx], (X0[:, axes] - lo) / width, k)
     design = np.repeat(d_idx, k)                       # (M,) the design of each start
     start_pts = worst.reshape(-1)
-    cache = {}
     base = X0[start_pts].copy()                        # (M, dof) the fixed axes stay
     u = (base[:, axes] - lo) / width
     val = sampled[design, start_pts].copy()
-    n_free = axes.size
-    step = np.full(design.size, 0.5 * max(N, 2) ** (-1.0 / n_free))
-    eye = np.eye(n_free) * H
-
-    def probe(uu, rows):
-        """The quantity (1 + f, M) at uu (M, f) and at its forward neighbours
-        (backward at an upper bound), evaluated for the starts ``rows`` (M,)
-        bool only (-inf elsewhere); (points (1 + f, M, f), values, gradient (M, f))."""
-        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
-        P = np.stack([_project(q, reg) for q in nb])
-        v = np.full(P.shape[:2], -np.inf)
-        r = np.flatnonzero(rows)
-        if r.size:
-            key = r.tobytes()
-            if key not in cache:            # one mechanism of the live starts' designs, until the set shrinks
-                cache.clear()
-                cache[key] = make(design[r])
-            X = np.broadcast_to(base[r], (P.shape[0], r.size) + base.shape[1:]).copy()
-            X[..., axes] = lo + P[:, r] * width
-            with np.errstate(all="ignore"):
-                vr = np.asarray(cache[key](X), float)
-            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
-        with np.errstate(all="ignore"):
-            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
-        return P, v, np.where(np.isfinite(g), g, 0.0)
-
-    def settle(P, v, rows):
-        """Starts whose probe met a pose past the stop (or not finite) take it and end."""
-        vmax = v.max(axis=0)
-        hit = rows & ~(vmax < stop) & (vmax > val)
-        if hit.any():
-            jj = np.argmax(v, axis=0)
-            h = np.flatnonzero(hit)
-            u[h] = P[jj[h], h]
-            val[h] = vmax[h]
-        return hit
-
-    live = np.isfinite(val) & (val < stop)
-    P, v, g = probe(u, live)
-    live &= ~settle(P, v, live)
-    for _ in range(iterations):
-        norm = np.sqrt(np.sum(g * g, axis=1))
-        live &= norm > 0                                # a flat point (zero gradient): stationary
-        if not live.any():
-            break
-        d = g / np.maximum(norm, 1e-300)[:, None]
-        trial = _project(u + step[:, None] * d, reg)
-        P, v, gt = probe(trial, live)
-        gain = live & (v[0] > val)
-        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
-        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
-        live &= ~settle(P, v, live)         # a probed pose past the stop, gained or not
-        live &= np.isfinite(val) & (val < stop) & (step >= tol)
+    spacing = max(N, 2) ** (-1.0 / axes.size)          # the samples' spacing (unit coordinates)
+    quantity = _Quantity(make, design, base, reg)
+    if method == "auto":
+        method = "zoom" if getattr(make, "compiled", False) else "ascent"
+    if method == "ascent":
+        _ascent(quantity, u, val, np.full(design.size, 0.5 * spacing), stop, iterations, tol)
+    elif method == "zoom":
+        _zoom(quantity, u, val, spacing, stop, tol, iterations)
+    else:
+        raise ValueError(f"method {method!r}: expected 'zoom' or 'ascent'")
     # the best start of each design
     found = np.full(D, -np.inf)
     np.maximum.at(found, design, val)
@@ -209,24 +175,142 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     return best, pose
 
 
+class _Quantity:
+    """The quantity at unit coordinates P (K, M, f) of the starts ``rows``
+    (M,) bool: (K, M) values (inf for NaN, -inf at the other starts); one
+    mechanism of the live starts' designs, rebuilt when that set changes."""
+
+    def __init__(self, make, design, base, reg):
+        self.make, self.design, self.base, self.reg = make, design, base, reg
+        self.key, self.f = None, None
+
+    def __call__(self, P, rows):
+        v = np.full(P.shape[:2], -np.inf)
+        r = np.flatnonzero(rows)
+        if r.size:
+            key = r.tobytes()
+            if key != self.key:
+                self.key, self.f = key, self.make(self.design[r])
+            reg = self.reg
+            X = np.broadcast_to(self.base[r], (P.shape[0], r.size) + self.base.shape[1:]).copy()
+            X[..., reg["axes"]] = reg["lo"] + P[:, r] * (reg["hi"] - reg["lo"])
+            with np.errstate(all="ignore"):
+                vr = np.asarray(self.f(X), float)
+            v[:, r] = np.where(np.isnan(vr), np.inf, vr)
+        return v
+
+
+def _settle(P, v, rows, u, val, stop):
+    """Starts whose poses P (K, M, f) met a value (K, M) past the stop (or not
+    finite) take it and end: the bool (M,) of those."""
+    vmax = v.max(axis=0)
+    hit = rows & ~(vmax < stop) & (vmax > val)
+    if hit.any():
+        jj = np.argmax(v, axis=0)
+        h = np.flatnonzero(hit)
+        u[h] = P[jj[h], h]
+        val[h] = vmax[h]
+    return hit
+
+
+def _zoom(quantity, u, val, spacing, stop, tol, iterations):
+    """The zoom search (a pattern search), in place on the starts' unit
+    coordinates u (M, f) and values val (M,): each level evaluates the
+    3^f - 1 neighbours of every live start at offsets of -h, 0, h per axis
+    (projected into W; with more than ``FULL_GRID`` free axes the 2 f at -h
+    and h along each axis), all starts in one call of the quantity, and moves each
+    start to its best neighbour if that gains (keeping its h), else halves
+    its h; h starts at half the samples' spacing, a start ends when its h is
+    below ``tol`` (unit coordinates), its value passes ``stop`` or is not
+    finite (infeasible), or after ``iterations`` levels."""
+    n_free = u.shape[1]
+    if n_free <= FULL_GRID:
+        grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
+        grid = grid[np.any(grid != 0, axis=1)]          # (3^f - 1, f): the centre is known
+    else:                                               # (2 f, f): along the axes only
+        grid = np.concatenate([np.eye(n_free), -np.eye(n_free)])
+    cols = np.arange(u.shape[0])
+    h = np.full(u.shape[0], 0.5 * spacing)
+    live = np.isfinite(val) & (val < stop)
+    for _ in range(iterations):
+        if not live.any():
+            break
+        P = _project((u[None] + h[None, :, None] * grid[:, None]).reshape(-1, n_free),
+                     quantity.reg).reshape(grid.shape[0], -1, n_free)
+        v = quantity(P, live)
+        j = np.argmax(v, axis=0)
+        vj = v[j, cols]
+        gain = live & (vj > val)
+        u[gain], val[gain] = P[j[gain], cols[gain]], vj[gain]
+        h = np.where(gain, h, 0.5 * h)
+        live &= (val < stop) & (h >= tol)               # past the stop or not finite: infeasible, the search ends
+
+
+def _ascent(quantity, u, val, step, stop, iterations, tol):
+    """The projected gradient ascent (the earlier search), in place on u (M, f)
+    and val (M,): forward differences in unit coordinates (backward at an
+    upper bound), a step along the normalized gradient that doubles on a gain
+    and halves otherwise, from ``step`` (M,), until it is below ``tol`` or
+    after ``iterations`` steps."""
+    reg = quantity.reg
+    n_free = u.shape[1]
+    step = np.array(step, float)
+    eye = np.eye(n_free) * H
+
+    def probe(uu, rows):
+        nb = [uu] + [np.where(uu[:, j:j + 1] + H <= 1.0, uu + eye[j], uu - eye[j]) for j in range(n_free)]
+        P = np.stack([_project(q, reg) for q in nb])
+        v = quantity(P, rows)
+        with np.errstate(all="ignore"):
+            g = np.stack([(v[1 + j] - v[0]) / (P[1 + j, :, j] - P[0, :, j]) for j in range(n_free)], axis=1)
+        return P, v, np.where(np.isfinite(g), g, 0.0)
+
+    live = np.isfinite(val) & (val < stop)
+    P, v, g = probe(u, live)
+    live &= ~_settle(P, v, live, u, val, stop)
+    for _ in range(iterations):
+        norm = np.sqrt(np.sum(g * g, axis=1))
+        live &= norm > 0                                # a flat point (zero gradient): stationary
+        if not live.any():
+            break
+        d = g / np.maximum(norm, 1e-300)[:, None]
+        trial = _project(u + step[:, None] * d, reg)
+        P, v, gt = probe(trial, live)
+        gain = live & (v[0] > val)
+        u[gain], val[gain], g[gain] = trial[gain], v[0][gain], gt[gain]
+        step = np.where(live, np.where(gain, np.minimum(step * 2.0, 0.5), step * 0.5), step)
+        live &= ~_settle(P, v, live, u, val, stop)      # a probed pose past the stop, gained or not
+        live &= np.isfinite(val) & (val < stop) & (step >= tol)
+
+
 def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray],
-                    kind: str = "isotropy", convention: str | None = None, stroke: bool = False) -> dict:
+                    kind: str = "isotropy", convention: str | None = None, stroke: bool = False,
+                    compiled: bool = True) -> dict:
     """The local quantities of a population for :func:`maximize`, each a
     factory ``make(index) -> f(X)`` (one mechanism of the designs ``index``
     (M,), poses X (K, M, dof) -> (K, M)): ``"cond"`` (the condition number of
     the Jacobian by ``convention``, inf where the pose is not reachable) and,
     with ``stroke``, ``"q_max"`` and ``"q_min_neg"`` (the largest actuator
     value and minus the smallest, inf where not reachable).  ``designs`` maps
-    parameters to arrays (D,)."""
+    parameters to arrays (D,).  The condition number comes from the
+    mechanism's compiled path (``Mechanism.local_values_at``) where it has
+    one (and ``compiled``), else from the numpy path."""
     designs = {k: np.asarray(v, float) for k, v in designs.items()}
 
     def mech_of(index):
         return mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
 
+    request = IndexRequest("cond", kind, convention)
+
     def cond(index):
         m = mech_of(index)
 
         def f(X):
+            fast = m.local_values_at([request], np.swapaxes(X, 0, 1)) if compiled else None
+            if fast is not None:       # the compiled path: each start's design at its own poses
+                vals, reach = fast
+                c, reach = vals["cond"].T, reach.T
+                return np.where(reach & np.isfinite(c), c, np.inf)
             with np.errstate(all="ignore"):
                 reach = np.asarray(m.reachable(X), bool)
                 J = m.index_matrices(X, {"J"})["J"]
@@ -234,6 +318,8 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
             return np.where(reach & np.isfinite(c), c, np.inf)
         return f
 
+    # the compiled path where the class has one (it may still decline: then the numpy path, correct but slower)
+    cond.compiled = compiled and getattr(mechanism, "local_values_at", None) is not Mechanism.local_values_at
     out = {"cond": cond}
     if stroke:
         def q(index, sign):
@@ -257,10 +343,14 @@ def q_range(Q) -> tuple[np.ndarray, np.ndarray]:
         return np.nanmin(F, axis=(-1, -2)), np.nanmax(F, axis=(-1, -2))
 
 
-def _sampled_cond(mech, X: np.ndarray, request, D: int) -> np.ndarray:
+def _sampled_cond(mech, X: np.ndarray, request, D: int, serial: bool = True) -> np.ndarray:
     """The local condition numbers (D, N) at the samples, inf where not
-    reachable: the compiled path's local values when it has them."""
-    fast = mech.local_values([request], X)
+    reachable: the compiled path's local values when it has them (with
+    ``serial`` its serial kernel of each design at its own points, cheaper for
+    a population than the parallel one's start-up)."""
+    fast = mech.local_values_at([request], np.broadcast_to(X, (D,) + X.shape)) if serial else None
+    if fast is None:
+        fast = mech.local_values([request], X)
     with np.errstate(all="ignore"):
         if fast is not None:
             vals, reach = fast
@@ -276,7 +366,7 @@ def _sampled_cond(mech, X: np.ndarray, request, D: int) -> np.ndarray:
 
 def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
                  request, limit: float, cmax: np.ndarray, reach_fraction: np.ndarray, Q=None,
-                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0):
+                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "auto"):
     """The maxima over W of the local constraints of a population (what the
     Evaluator's constraints need): ``(max cond (D,), (min q, max q) (D,) or
     None)``.  ``cmax`` and ``Q`` (D, N, n_act) are the samples' values; the
@@ -284,7 +374,9 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
     reachable, cond <= ``limit``, the strokes within the limits narrowed by
     ``margin`` times their span); the others are infeasible already and keep
     their sampled values.  ``request`` is the conditioning index request (its
-    kind and convention are those of the sampled index)."""
+    kind and convention are those of the sampled index); ``method`` that of
+    :func:`maximize` (``"ascent"``: the earlier search as it was, on the numpy
+    path's quantities, for benchmarks/bench_worstcase.py)."""
     cmax = np.array(cmax, float)
     ok = (reach_fraction >= 1.0) & np.isfinite(cmax) & (cmax <= limit)
     qr = q_range(Q) if Q is not None else None
@@ -297,9 +389,11 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
         return cmax, qr
     sub = {k: np.asarray(v, float)[idx] for k, v in designs.items()}
     mech = mechanism(**{**fixed, **{k: v[:, None] for k, v in sub.items()}})
-    sampled = _sampled_cond(mech, ws.X, request, idx.size)
-    fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None)
-    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit)
+    new = method != "ascent"                # "ascent": the earlier search as it was, numpy quantities
+    sampled = _sampled_cond(mech, ws.X, request, idx.size, serial=new)
+    fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None,
+                         compiled=new)
+    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method)
     cmax[idx] = np.maximum(cmax[idx], found)
     if qr is not None:
         qn, qx = qr[0].copy(), qr[1].copy()
@@ -308,8 +402,8 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
             fin = np.all(np.isfinite(Qs), axis=-1)
             top = np.where(fin, np.max(Qs, axis=-1), np.inf)
             neg = np.where(fin, np.max(-Qs, axis=-1), np.inf)
-        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top)[0])
-        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg)[0])
+        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top, method=method)[0])
+        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg, method=method)[0])
         qr = (qn, qx)
     return cmax, qr
 

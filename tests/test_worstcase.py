@@ -11,7 +11,7 @@ from conftest import DATA, PAPER
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import Evaluator
 from optdesign.linalg import cond_2, cond_fro
-from optdesign import worstcase
+from optdesign import fast, worstcase
 
 #: a 3-P(4S) design of the paper's bounds (r_a, r_b in m, phi in rad) whose
 #: 11 x 11 samples have cond_F <= 818, while a singular curve crosses W
@@ -45,10 +45,13 @@ def test_singular_between_the_samples_is_infeasible():
     assert _dense(ev, BETWEEN) > 1000.0                                         # and a dense grid agrees
 
 
+@pytest.mark.parametrize("method", ["auto", "ascent"])
 @pytest.mark.parametrize("path", [PAPER, DATA / "p4s_tiny.yaml"])
-def test_found_maximum_matches_a_dense_grid(path):
+def test_found_maximum_matches_a_dense_grid(path, method):
     """The search's maximum over W against a 401^2 grid, with the config's
-    cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2)."""
+    cond convention (the paper: cond_F; p4s_tiny, no isotropy index: cond_2),
+    by the default search (the zoom on the compiled path) and by the
+    gradient ascent on the numpy path."""
     cfg = load_config(path)
     ev = Evaluator.from_config(cfg)
     req = next(r for r in ev.requests_all if r.kind == "isotropy")
@@ -57,8 +60,10 @@ def test_found_maximum_matches_a_dense_grid(path):
     d = ev.designs(X)
     mech = ev.mechanism(**{**ev.fixed, **{k: v[:, None] for k, v in d.items()}})
     sampled = worstcase._sampled_cond(mech, ev.workspace.X, req, len(X))
-    f = worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention)["cond"]
-    found, pose = worstcase.maximize(f, ev.workspace, sampled)
+    f = worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention,
+                                  compiled=method == "auto")["cond"]
+    assert f.compiled == (method == "auto")                  # the 3-P(4S) has a compiled cond: the zoom
+    found, pose = worstcase.maximize(f, ev.workspace, sampled, method=method)
     for i in range(len(X)):
         dense = _dense(ev, X[i])
         assert found[i] >= dense * (1 - 1e-4)        # at least what the dense grid sees
@@ -100,3 +105,38 @@ def test_projection_stays_in_a_disc():
     p = worstcase._project(u, {"disc": (0.0, 0.0, 1.0)})
     assert np.all(np.sum((p - 0.5) ** 2, axis=1) <= 0.25 + 1e-12)
     assert np.allclose(p[1:], u[1:])
+
+
+def test_compiled_quantity_equals_the_numpy_path():
+    """The search's cond from the compiled path (each design at its own poses,
+    Mechanism.local_values_at) equals the numpy path's, inf where a pose is
+    not reachable (a pose outside the workspace's bounds included)."""
+    ev = Evaluator.from_config(load_config(PAPER))
+    req = next(r for r in ev.requests_all if r.kind == "isotropy")
+    X = np.array([[0.25, 0.67, np.deg2rad(30)], BETWEEN, [0.29, 0.63, np.deg2rad(28.7)]])
+    d = ev.designs(X)
+    idx = np.array([0, 1, 2, 1])
+    rng = np.random.default_rng(0)
+    P = np.concatenate([rng.uniform(-0.05, 0.05, (7, 4, 2)), np.full((7, 4, 1), 0.57)], axis=2)
+    P[0, 0, :2] = 1.0                                            # far outside: not reachable
+    f = {c: worstcase.local_functions(ev.mechanism, ev.fixed, d, req.kind, req.convention, compiled=c)["cond"](idx)
+         for c in (True, False)}
+    m = ev.mechanism(**{**ev.fixed, **{k: v[idx] for k, v in d.items()}})
+    if fast.enabled():
+        assert m.local_values_at([req], np.swapaxes(P, 0, 1)) is not None    # the compiled path answers
+    a, b = f[True](P), f[False](P)
+    assert np.isinf(a[0, 0]) and np.array_equal(np.isinf(a), np.isinf(b))
+    assert np.allclose(a[np.isfinite(a)], b[np.isfinite(b)], rtol=1e-12, atol=0)
+
+
+def test_a_design_seen_before_is_not_searched_again(monkeypatch):
+    ev = Evaluator.from_config(load_config(PAPER))
+    rows = []
+    real = worstcase.worst_over_w
+    monkeypatch.setattr(worstcase, "worst_over_w", lambda m, fx, designs, *a, **k: (
+        rows.append(len(next(iter(designs.values())))), real(m, fx, designs, *a, **k))[1])
+    X = np.array([BETWEEN, [0.25, 0.67, np.deg2rad(30)]])
+    first = ev(X)["constraints"]["singularity"]
+    again = ev(np.array([[0.25, 0.67, np.deg2rad(30)], BETWEEN, [0.26, 0.67, np.deg2rad(30)]]))["constraints"]
+    assert rows == [2, 1]                                        # only the new design is searched
+    assert np.array_equal(again["singularity"][:2], first[::-1]) and first[0] > 0

@@ -231,6 +231,13 @@ class Mechanism:
         values must equal the numpy path's to 1e-12 relative."""
         return None
 
+    def local_values_at(self, requests: Sequence[IndexRequest], X: np.ndarray):
+        """As :meth:`local_values`, but each of the D designs at its own K
+        points X (D, K, dof): ``(values {name: (D, K)}, reachable (D, K))``,
+        or None (the caller then runs the numpy path).  The worst-case search
+        over W (:mod:`optdesign.worstcase`) evaluates its poses this way."""
+        return None
+
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
         """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
         (actuator-space mass matrix of the dynamic index)."""

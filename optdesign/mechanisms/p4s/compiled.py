@@ -6,7 +6,9 @@
   (:mod:`.kernels`), reduced to mean, min, max and standard deviation over the
   reachable points (see ``docs/performance.md``);
 * :func:`local_values` answers ``P4S.local_values`` (the per-point values of
-  the same kernel, for weighted quadratures);
+  the same kernel, for weighted quadratures), :func:`local_values_at`
+  ``P4S.local_values_at`` (each design at its own points: the worst-case
+  search over W);
 * :func:`inverse` and :func:`jacobian` (:mod:`.ik_kernels`) and
   :func:`forward` (:mod:`.fk_kernels`) back the public methods of
   :class:`~.model.P4S`.
@@ -38,7 +40,7 @@ from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singul
 from .dynamics import mass_coefficients, platform_mass, solve_T
 
 __all__ = ["LOCAL", "FK", "IK", "VALUE_NAMES", "SUPPORTED", "design_constants", "p4s_local", "p4s_summary",
-           "global_statistics", "local_values", "plan", "forward", "inverse", "jacobian"]
+           "global_statistics", "local_values", "local_values_at", "p4s_pairs", "plan", "forward", "inverse", "jacobian"]
 
 LOCAL = KernelModule("optdesign.mechanisms.p4s.kernels")
 FK = KernelModule("optdesign.mechanisms.p4s.fk_kernels")
@@ -260,6 +262,51 @@ def local_values(mech, requests, X):
         v = vals[VALUE_NAMES[row]]
         out[n] = v * fac if fac != 1.0 else v
     return out, reach
+
+
+def _once(mech, key, func):
+    """``func(mech)``, kept on the mechanism (its parameters do not change):
+    the worst-case search calls :func:`local_values_at` once per level."""
+    memo = mech.__dict__.setdefault("_compiled_memo", {})
+    if key not in memo:
+        memo[key] = func(mech)
+    return memo[key]
+
+
+def p4s_pairs(mech, X, two_norm: bool = True) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Local values of each design d of ``mech`` at its own points X[d]
+    (D, K, 3), as :func:`p4s_local` (dict of (D, K), reachable (D, K))."""
+    k = LOCAL.require()
+    X = np.ascontiguousarray(X, dtype=float)
+    D, K = X.shape[:2]
+    vals, codes = k.p4s_pairs(_once(mech, "constants", design_constants), X, bool(two_norm))
+    reach = codes != 0
+    vals = np.where(reach[None], vals, np.nan)
+    dd, kk = np.nonzero(codes == 2)
+    if len(dd):
+        vals[:, dd, kk] = _lapack_values(mech, X.reshape(D * K, 3), dd, dd * K + kk,
+                                         (True, True, True, True, two_norm))
+    out = {n: vals[i] for i, n in enumerate(VALUE_NAMES)}
+    if not two_norm:
+        del out["cond_2"]
+    return out, reach
+
+
+def local_values_at(mech, requests, X):
+    """The seam ``Mechanism.local_values_at`` from the fused kernel: each
+    design at its own points X (D, K, 3), or None when it does not apply."""
+    if not enabled():
+        return None
+    rows = plan(requests)
+    D = _once(mech, "count", _n_designs)
+    X = np.asarray(X, dtype=float)
+    if not rows or D is None or X.ndim != 3 or X.shape[0] != D or X.shape[2] != 3 or LOCAL.get() is None:
+        return None
+    res = LOCAL.guarded(p4s_pairs, mech, X, any(row == 4 for _, row, _ in rows))
+    if res is None:
+        return None
+    vals, reach = res
+    return {n: vals[VALUE_NAMES[row]] * fac if fac != 1.0 else vals[VALUE_NAMES[row]] for n, row, fac in rows}, reach
 
 
 # ---------------------------------------------------------------------- kinematics

@@ -347,6 +347,36 @@ def _p4s_local(P, X, two):
     return vals, reach
 
 
+def p4s_pairs(P, X, want_two):
+    """See _p4s_pairs; ``want_two`` a bool (the 2-norm condition number wanted)."""
+    return _p4s_pairs(P, X, True if want_two else None)
+
+
+@njit(**_NJIT)
+def _p4s_pairs(P, X, two):
+    """Local values (NVAL, D, K) and the reach codes (D, K) (as _p4s_local) of
+    each design d (rows of P) at its own K points X[d] (D, K, 3): the
+    worst-case search's poses, one set per design.  Serial: a search level
+    holds a few thousand poses, which a parallel loop's start-up costs more
+    than (on a loaded machine, several times more)."""
+    D = P.shape[0]
+    K = X.shape[1]
+    vals = np.empty((NVAL, D, K))
+    reach = np.empty((D, K), dtype=np.int8)
+    buf = np.empty(6 * CHUNK)
+    inb = np.empty(3 * CHUNK)
+    for d in range(D):
+        for lo in range(0, K, CHUNK):
+            hi = min(lo + CHUNK, K)
+            _load_chunk(X[d], lo, hi, inb)
+            _chunk(P, d, inb, hi - lo, two, buf)
+            for j in range(hi - lo):
+                reach[d, lo + j] = np.int8(buf[j])
+                for v in range(NVAL):
+                    vals[v, d, lo + j] = buf[(v + 1) * CHUNK + j]
+    return vals, reach
+
+
 @njit(inline="always", **_NJIT)
 def _next_wanted(want, v):
     """The first wanted value index >= v, NVAL if none."""

@@ -223,6 +223,10 @@ class P4S(Mechanism):
         """The fused compiled kernel's local values (see :func:`.compiled.local_values`)."""
         return compiled.local_values(self, requests, X)
 
+    def local_values_at(self, requests, X):
+        """The fused kernel, each design at its own points (see :func:`.compiled.local_values_at`)."""
+        return compiled.local_values_at(self, requests, X)
+
     def bare_kernel(self, X):
         """The fused kernel alone, for benchmarks (see :func:`.compiled.bare_kernel`)."""
         return compiled.bare_kernel(self, X)
