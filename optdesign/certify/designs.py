@@ -9,8 +9,11 @@ a disc in the first two axes), that
 * every pose is reachable (every leg closes),
 * the singularity constraint holds: the condition number of the config's
   first isotropy index (its convention: ``frobenius`` or ``two_norm``; else
-  cond_2) is <= the limit (:func:`.matrix.cond_fro_upper` or
-  :func:`.matrix.cond_2_upper`),
+  cond_2) is <= the limit: per box the smaller of the preconditioned bound
+  (:func:`.matrix.cond_fro_upper` or :func:`.matrix.cond_2_upper`) and the
+  adjugate's (:func:`.matrix.cond_fro_upper_adjugate` or
+  :func:`.matrix.cond_2_upper_adjugate`: det and adj J in mean-value form
+  from the enclosure's duals of J),
 * the actuator values lie within the stroke limits, when the config sets
   them (prismatic and strut legs; a revolute leg's angle is not enclosed,
   so a stroke limit with revolute legs leaves the design ``unknown``),
@@ -27,13 +30,13 @@ import numpy as np
 
 from ..linalg import cond_2, cond_fro
 from .bnb import branch_and_bound
-from ..intervals.matrix import cond_2_upper, cond_fro_upper
+from ..intervals.matrix import cond_2_upper, cond_2_upper_adjugate, cond_fro_upper, cond_fro_upper_adjugate
 
 __all__ = ["certify_design", "region_of", "DEFAULT_BUDGET"]
 
 #: box evaluations per design (a planar W needs a few hundred; the 6-D
 #: Gough-Stewart uses the whole budget and reports the share proved)
-DEFAULT_BUDGET = 200_000
+DEFAULT_BUDGET = 300_000
 
 
 def region_of(workspace) -> dict:
@@ -74,6 +77,7 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
     disc = region["disc"]
     cond = cond_fro if convention == "frobenius" else cond_2
     upper = cond_fro_upper if convention == "frobenius" else cond_2_upper
+    upper_adj = cond_fro_upper_adjugate if convention == "frobenius" else cond_2_upper_adjugate
 
     def inside(X):
         if disc is None:
@@ -91,7 +95,8 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
 
     def bound(lo, hi):
         e = enc(lo, hi)
-        ub = np.where(e["reach_lo"] > 0, upper(e["J"]), np.inf)
+        c = np.minimum(upper(e["J"]), upper_adj(e["J"], e.get("J_dual"), e.get("J_mid"), lo, hi))
+        ub = np.where(e["reach_lo"] > 0, c, np.inf)
         if stroke_limits is not None:
             s_lo, s_hi = stroke_limits
             for q in e["q"]:
