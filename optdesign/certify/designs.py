@@ -64,13 +64,15 @@ def _enclosure(mech):
 
 
 def certify_design(mech, region: dict, limit: float, convention: str = "two_norm",
-                   stroke_limits: tuple[float, float] | None = None, budget: int = DEFAULT_BUDGET) -> dict:
+                   stroke_limits: tuple[float, float] | None = None, budget: int = DEFAULT_BUDGET,
+                   adjugate: bool = True) -> dict:
     """The certificate of one design (``mech``: a mechanism instance of one
     design) over ``region`` (:func:`region_of`): a dict with ``status``
     (certified / refuted / unknown / not_supported), ``share_proved``,
     ``boxes``, ``seconds``, and for a refutation ``witness`` (the pose, SI)
     with ``value`` (the condition number there; inf where unreachable) and
-    ``reason`` (unreachable, stroke or singularity)."""
+    ``reason`` (unreachable, stroke or singularity).  ``adjugate=False``
+    uses the preconditioned bound alone (benchmarks/bench_certify.py compares)."""
     enc, why = _enclosure(mech)
     if enc is None:
         return {"status": "not_supported", "reason": why, "share_proved": 0.0, "boxes": 0}
@@ -95,7 +97,9 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
 
     def bound(lo, hi):
         e = enc(lo, hi)
-        c = np.minimum(upper(e["J"]), upper_adj(e["J"], e.get("J_dual"), e.get("J_mid"), lo, hi))
+        c = upper(e["J"])
+        if adjugate:
+            c = np.minimum(c, upper_adj(e["J"], e.get("J_dual"), e.get("J_mid"), lo, hi))
         ub = np.where(e["reach_lo"] > 0, c, np.inf)
         if stroke_limits is not None:
             s_lo, s_hi = stroke_limits

@@ -36,16 +36,21 @@ def reported_designs(results: dict, stages: dict, parameters) -> dict[str, dict]
     return out
 
 
-def budget_for(dof_free: int, pareto: bool) -> int:
-    """Box evaluations per design: the whole default for W of up to 3 free
-    axes (where proofs take hundreds of boxes); less for higher dimensions,
-    and a tenth of it for each Pareto point."""
-    b = DEFAULT_BUDGET if dof_free <= 3 else DEFAULT_BUDGET // 4
-    return b // 10 if pareto else b
+def budget_for(dof_free: int, pareto: bool, base: int = DEFAULT_BUDGET) -> int:
+    """Box evaluations per design: the whole ``base`` (the config's
+    ``checks.certificate_budget``) for W of up to 3 free axes (where a design
+    on the singularity constraint at a 0.1 % margin takes about 2e5 boxes);
+    a third of it for higher dimensions, and a twentieth of that for each
+    Pareto point."""
+    b = base if dof_free <= 3 else base // 3
+    return b // 20 if pareto else b
 
 
-def certify_reported(evaluator, results: dict, stages: dict, budget: int | None = None) -> dict:
-    """``{key: certificate}`` of every reported design (see module doc)."""
+def certify_reported(evaluator, results: dict, stages: dict, budget: int | None = None,
+                     base: int = DEFAULT_BUDGET) -> dict:
+    """``{key: certificate}`` of every reported design (see module doc);
+    ``budget`` fixes the box evaluations of every design, else
+    :func:`budget_for` scales ``base``."""
     designs = reported_designs(results, stages, evaluator.defaults)
     region = region_of(evaluator.workspace)
     conv = "two_norm"
@@ -58,7 +63,7 @@ def certify_reported(evaluator, results: dict, stages: dict, budget: int | None 
         full = {**evaluator.defaults, **d}
         sig = tuple(sorted(full.items()))
         is_front = key.endswith("]")
-        b = budget if budget is not None else budget_for(free, is_front)
+        b = budget if budget is not None else budget_for(free, is_front, base)
         if sig not in done or (done[sig]["status"] == "unknown" and done[sig]["boxes"] < b):
             mech = evaluator.mechanism(**{**evaluator.fixed, **full})
             done[sig] = certify_design(mech, region, evaluator.threshold, conv, evaluator.stroke_limits, budget=b)
