@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..linalg import cond_2, cond_fro
+from ..intervals.dual import Dual
+from ..intervals.interval import Interval
 from .bnb import branch_and_bound
 from ..intervals.matrix import cond_2_upper, cond_2_upper_adjugate, cond_fro_upper, cond_fro_upper_adjugate
 
@@ -53,6 +55,17 @@ def region_of(workspace) -> dict:
         hi[:2] = (cx + r, cy + r)
         disc = (float(cx), float(cy), r)
     return {"lo": lo, "hi": hi, "disc": disc}
+
+
+def _take(x, idx):
+    """The boxes ``idx`` of nested lists of Interval / Dual (floats and None unchanged)."""
+    if isinstance(x, (list, tuple)):
+        return type(x)(_take(v, idx) for v in x)
+    if isinstance(x, Interval):
+        return x if x.lo.ndim == 0 else x[idx]
+    if isinstance(x, Dual):
+        return Dual(x.v[idx], [None if a is None else _take(a, idx) for a in x.d])
+    return x
 
 
 def _enclosure(mech):
@@ -97,9 +110,17 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
 
     def bound(lo, hi):
         e = enc(lo, hi)
-        c = upper(e["J"])
-        if adjugate:
-            c = np.minimum(c, upper_adj(e["J"], e.get("J_dual"), e.get("J_mid"), lo, hi))
+        J = e["J"]
+        if not adjugate or e.get("J_dual") is None:
+            c = upper(J)
+        else:       # the cheaper bound first (measured: the adjugate's for cond_2), the other where it fails
+            pre = lambda J, Jd, Jm, lo, hi: upper(J)  # noqa: E731
+            first, second = (pre, upper_adj) if convention == "frobenius" else (upper_adj, pre)
+            c = first(J, e["J_dual"], e["J_mid"], lo, hi)
+            need = np.flatnonzero(~(c <= limit))
+            if need.size:
+                sub = _take((J, e["J_dual"], e["J_mid"]), need)
+                c[need] = np.minimum(c[need], second(*sub, lo[need], hi[need]))
         ub = np.where(e["reach_lo"] > 0, c, np.inf)
         if stroke_limits is not None:
             s_lo, s_hi = stroke_limits
