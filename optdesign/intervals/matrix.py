@@ -87,16 +87,10 @@ def _sigma_max_upper(A) -> np.ndarray:
     return np.minimum(_gram_bound(A), _gram_bound(At))
 
 
-def _gram_bound(A) -> np.ndarray:
-    n_r, n_c = len(A), len(A[0])
-    B = [[None] * n_c for _ in range(n_c)]
-    for i in range(n_c):
-        for j in range(i, n_c):
-            acc = None
-            for k in range(n_r):
-                t = A[k][i].sqr() if i == j else A[k][i] * A[k][j]
-                acc = t if acc is None else acc + t
-            B[i][j] = B[j][i] = acc
+def _gram_bound(A, B=None) -> np.ndarray:
+    """Gershgorin's bound of sigma_max(A) from the interval Gram matrix B = A^T A."""
+    B = _gram(A) if B is None else B
+    n_c = len(B)
     best = None
     for i in range(n_c):
         s = B[i][i].hi
@@ -298,14 +292,14 @@ def lambda_max_upper(S: np.ndarray) -> np.ndarray:
     return np.where(ok, out, np.inf)
 
 
-def _weyl_bound(A) -> np.ndarray:
+def _weyl_bound(A, G=None) -> np.ndarray:
     """(K,) upper bounds of sigma_max over an interval matrix A by Weyl's
     inequality on its Gram matrix G = A^T A: for every G' in G,
     lambda_max(G') <= lambda_max(M) + ||G' - M||_2 <= lambda_max(M) + ||R||_2,
     M the float midpoint matrix and R (entrywise, upper) the largest distance
     of G's bounds from M (|G' - M| <= R, and the 2-norm is monotone on
     nonnegative matrices); ||R||_2 <= min(||R||_F, ||R||_inf)."""
-    G = _gram(A)
+    G = _gram(A) if G is None else G
     n = len(G)
     M = np.stack([np.stack([e.mid for e in row], -1) for row in G], -2)
     M = 0.5 * (M + np.swapaxes(M, -1, -2))
@@ -326,7 +320,9 @@ def _weyl_bound(A) -> np.ndarray:
 
 def sigma_max_upper(A) -> np.ndarray:
     """(K,) upper bounds of the largest singular value over an interval matrix
-    A: the smallest of Gershgorin's (:func:`_sigma_max_upper`) and Weyl's
-    (:func:`_weyl_bound`, on A^T A and on A A^T)."""
+    A: the smallest of Gershgorin's bounds on A^T A and A A^T
+    (:func:`_sigma_max_upper`) and Weyl's on A^T A (:func:`_weyl_bound`; A A^T
+    has the same nonzero eigenvalues)."""
     At = [[A[i][j] for i in range(len(A))] for j in range(len(A[0]))]
-    return np.minimum(_sigma_max_upper(A), np.minimum(_weyl_bound(A), _weyl_bound(At)))
+    G = _gram(A)
+    return np.minimum(np.minimum(_gram_bound(A, G), _gram_bound(At)), _weyl_bound(A, G))
