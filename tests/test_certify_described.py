@@ -228,11 +228,15 @@ def test_condition_bounds_hold_over_interval_matrices():
     R = np.abs(rng.normal(size=(K, n, n))) * rng.choice([1e-4, 1e-2, 0.1], (K, 1, 1))
     J = [[Interval(M[:, i, k] - R[:, i, k], M[:, i, k] + R[:, i, k]) for k in range(n)] for i in range(n)]
     u2, uf = cond_2_upper(J), cond_fro_upper(J)
+    a2, af = cond_2_upper_adjugate(J), cond_fro_upper_adjugate(J)     # order 4: cofactors of order 3
     assert np.all(u2 <= uf)
+    assert np.sum(np.isfinite(af)) > K // 3
     for _ in range(30):
         S = M + R * rng.uniform(-1, 1, M.shape)
         assert np.all(cond_2(S) <= u2)
         assert np.all(cond_fro(S) <= uf)
+        assert np.all(cond_2(S) <= a2)
+        assert np.all(cond_fro(S) <= af)
     tight = (R.max(axis=(1, 2)) < 1e-3) & (np.arange(K) % 2 == 1)
     assert tight.sum() > 30
     assert np.all(u2[tight] < 1.01 * cond_2(M[tight]))
