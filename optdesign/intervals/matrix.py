@@ -260,32 +260,45 @@ def _gram(A):
     return B
 
 
+#: unit roundoff of IEEE double, and twice the smallest subnormal (the
+#: absolute error of a product that underflows is at most half of it)
+_U = 2.0 ** -53
+_ETA2 = 2.0 ** -1073
+
+
+def _residual_upper(P: np.ndarray, B: np.ndarray, m: int) -> np.ndarray:
+    """Entrywise upper bounds of |exact| for a float result P of sums of m
+    products (computed in any order, with or without FMA), B the float sums
+    of the products' magnitudes: |fl - exact| <= gamma_m sum |x y| with
+    gamma_m = m u / (1 - m u) (Higham, Accuracy and Stability, 3.1), plus m
+    half-subnormals for underflow.  The margin: 2 gamma_m B covers B's own
+    rounding (B underestimates sum |x y| by at most a factor 1 + gamma_m) and
+    the rounding of this bound's few operations."""
+    gamma = m * _U / (1.0 - m * _U)
+    return _up(_up(np.abs(P) + _up(2.0 * gamma * B)) + m * _ETA2)
+
+
 def lambda_max_upper(S: np.ndarray) -> np.ndarray:
     """(K,) rigorous upper bounds of the largest eigenvalue of float symmetric
     matrices S (K, n, n).  eigh gives V, Lambda in floats; with the residual
-    R = S V - V Lambda and F = V^T V - I (both enclosed in interval
-    arithmetic, so their norms are upper bounds), V^-1 S V = Lambda + V^-1 R,
-    and Bauer-Fike on the diagonal Lambda puts every eigenvalue of S within
-    ||V^-1 R||_2 <= ||R||_F / sqrt(1 - ||F||_F) of some float eigenvalue
-    (sigma_min(V)^2 >= 1 - ||F||_2).  inf where ||F||_F >= 1 or S is not finite."""
-    K, n = S.shape[0], S.shape[-1]
+    R = S V - V Lambda and F = V^T V - I (their float values with a priori
+    bounds of their rounding, :func:`_residual_upper`), V^-1 S V = Lambda +
+    V^-1 R, and Bauer-Fike on the diagonal Lambda puts every eigenvalue of S
+    within ||V^-1 R||_2 <= ||R||_F / sqrt(1 - ||F||_F) of some float
+    eigenvalue (sigma_min(V)^2 >= 1 - ||F||_2).  inf where ||F||_F >= 1 or S
+    is not finite."""
+    n = S.shape[-1]
     good = np.all(np.isfinite(S), axis=(-1, -2))
     Sg = np.where(good[:, None, None], S, 0.0)
     with np.errstate(all="ignore"):
         w, V = np.linalg.eigh(Sg)
-    r_mag, f_mag = [], []
-    for i in range(n):
-        for j in range(n):
-            acc = Interval(-V[:, i, j]) * w[:, j]
-            facc = Interval(-1.0 if i == j else 0.0) + Interval(np.zeros(K))
-            for k in range(n):
-                acc = acc + Interval(Sg[:, i, k]) * V[:, k, j]
-                facc = facc + Interval(V[:, k, i]) * V[:, k, j]
-            r_mag.append(acc.mag)
-            f_mag.append(facc.mag)
-    with np.errstate(all="ignore"):
-        r = norm_upper(r_mag)
-        f = norm_upper(f_mag)
+        Vt = np.swapaxes(V, -1, -2)
+        R = Sg @ V - V * w[:, None, :]
+        Rb = np.abs(Sg) @ np.abs(V) + np.abs(V) * np.abs(w)[:, None, :]
+        F = Vt @ V - np.eye(n)
+        Fb = np.abs(Vt) @ np.abs(V) + np.eye(n)
+        r = norm_upper(list(_residual_upper(R, Rb, n + 1).reshape(len(S), -1).T))
+        f = norm_upper(list(_residual_upper(F, Fb, n + 1).reshape(len(S), -1).T))
         den = _down(np.sqrt(_down(1.0 - f)))
         out = _up(w[:, -1] + _up(r / den))
     ok = good & (f < 1.0) & (den > 0) & np.isfinite(out)
