@@ -5,9 +5,16 @@ continuous W, as a ratio to one evaluation of that design on its W sample
 
     python benchmarks/bench_certify.py [--budget N]
 
+    python benchmarks/bench_certify.py --compare [--configs p4s_paper ...]
+
 Prints one row per config: status, boxes, seconds, the evaluation's seconds
 and the ratio.  The ratio is what a run pays per reported design; it does not
-grow with the population or the generations.
+grow with the population or the generations.  p4s_paper also proves its
+normalization extreme on the singularity constraint (r_a 0.29 m, r_b 0.63 m,
+phi 28.70055 deg: max cond_F over W 999.0 against the limit 1000).
+``--compare`` proves each design twice, with the preconditioned cond bound
+alone (before) and with the adjugate's (after, the default), and prints the
+ratios of boxes and seconds.
 """
 from __future__ import annotations
 
@@ -24,34 +31,53 @@ from optdesign.evaluate import build, evaluate, workspace_of
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ["p4s_paper", "p4s_legs", "delta", "sps_s_legs_opt", "gough_stewart"]
+#: extra designs (SI) beside each config's last named one
+EXTRA = {"p4s_paper": {"extreme": {"r_a": 0.29, "r_b": 0.63, "phi": float(np.radians(28.70055))}}}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--budget", type=int, default=None)
+    ap.add_argument("--compare", action="store_true", help="before (preconditioned bound) and after (adjugate)")
+    ap.add_argument("--configs", nargs="*", default=CONFIGS)
     args = ap.parse_args()
-    print(f"{'config':<16} {'design':<10} {'status':<10} {'boxes':>7} {'cert s':>8} {'eval s':>8} {'ratio':>8}")
-    for name in CONFIGS:
+    head = f"{'config':<16} {'design':<10} {'status':<10} {'boxes':>7} {'cert s':>8} {'eval s':>8} {'ratio':>8}"
+    if args.compare:
+        head += f" {'before':<10} {'boxes':>7} {'cert s':>8} {'boxes x':>8} {'s x':>7}"
+    print(head)
+    for name in args.configs:
         cfg = load_config(ROOT / "configs" / f"{name}.yaml")
         ws = workspace_of(cfg)
         region = region_of(ws)
         free = int(np.sum(region["hi"] > region["lo"]))
         budget = args.budget or budget_for(free, False)
-        design = list(cfg.designs)[-1]
+        last = list(cfg.designs)[-1]
+        designs = {last: cfg.design(last), **{k: {**cfg.design(last), **v} for k, v in EXTRA.get(name, {}).items()}}
         iso = [k for k, s in cfg.indices.items() if s.kind == "isotropy"]
         conv = (cfg.indices[iso[0]].convention or "frobenius") if iso else "two_norm"
-        evaluate(cfg, [cfg.design(design)], ws)          # warm (compiled paths, caches)
-        t = time.perf_counter()
-        for _ in range(3):
-            evaluate(cfg, [cfg.design(design)], ws)
-        t_eval = (time.perf_counter() - t) / 3
-        mech = build(cfg, design)
-        t = time.perf_counter()
-        c = certify_design(mech, region, cfg.optimizer.singularity_threshold, conv, cfg.optimizer.stroke_limits,
-                           budget=budget)
-        t_cert = time.perf_counter() - t
-        print(f"{name:<16} {design:<10} {c['status']:<10} {c['boxes']:>7} {t_cert:>8.3f} {t_eval:>8.4f} "
-              f"{t_cert / t_eval:>8.1f}")
+        for label, design in designs.items():
+            evaluate(cfg, [design], ws)          # warm (compiled paths, caches)
+            t = time.perf_counter()
+            for _ in range(3):
+                evaluate(cfg, [design], ws)
+            t_eval = (time.perf_counter() - t) / 3
+            mech = build(cfg, design)
+            certify_design(mech, region, cfg.optimizer.singularity_threshold, conv, cfg.optimizer.stroke_limits,
+                           budget=1)             # warm (first calls of numpy's linear algebra)
+            row = []
+            for adj in ([True, False] if args.compare else [True]):
+                t = time.perf_counter()
+                c = certify_design(mech, region, cfg.optimizer.singularity_threshold, conv,
+                                   cfg.optimizer.stroke_limits, budget=budget, adjugate=adj)
+                row.append((c, time.perf_counter() - t))
+            (c, t_cert) = row[0]
+            line = (f"{name:<16} {label:<10} {c['status']:<10} {c['boxes']:>7} {t_cert:>8.3f} {t_eval:>8.4f} "
+                    f"{t_cert / t_eval:>8.1f}")
+            if args.compare:
+                b, t_b = row[1]
+                line += (f" {b['status']:<10} {b['boxes']:>7} {t_b:>8.3f} {c['boxes'] / b['boxes']:>8.3f} "
+                         f"{t_cert / t_b:>7.2f}")
+            print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from optdesign.certify.designs import certify_design, region_of
 from optdesign.mechanisms.described.enclosure import DescribedEnclosure
 from optdesign.intervals.dual import Dual, cos, mean_value, seed, sin
 from optdesign.intervals.interval import Interval
+from optdesign.intervals.matrix import cond_2_upper_adjugate, cond_fro_upper_adjugate
 from optdesign.config import load_config
 from optdesign.evaluate import build, workspace_of
 from optdesign.linalg import cond_2, cond_fro
@@ -42,7 +43,7 @@ def test_enclosures_contain_the_float_model(name):
     ws = workspace_of(cfg)
     reg = region_of(ws)
     rng = np.random.default_rng(11)
-    checked = 0
+    checked = bounded = 0
     for trial in range(3):
         mech = build(cfg, _random_design(cfg, rng) if cfg.free_variables else next(iter(cfg.designs)))
         enc = DescribedEnclosure(mech)
@@ -51,6 +52,9 @@ def test_enclosures_contain_the_float_model(name):
         w = span * rng.choice([0.002, 0.02, 0.1], (60, 1))
         lo, hi = c - w / 2, c + w / 2
         e = enc.evaluate(lo, hi)
+        args = (e["J"], e["J_dual"], e["J_mid"], lo, hi)
+        with np.errstate(all="ignore"):
+            u_adj = {"fro": cond_fro_upper_adjugate(*args), "two": cond_2_upper_adjugate(*args)}
         X = lo[None] + rng.uniform(0, 1, (25, 1, len(span))) * (hi - lo)[None]
         for s in range(X.shape[0]):
             J = mech.index_matrices(X[s], {"J"})["J"]
@@ -64,8 +68,13 @@ def test_enclosures_contain_the_float_model(name):
                     assert np.all(inside[proved]), (name, i, k)
                 if e["q"][i] is not None:
                     assert np.all(e["q"][i].contains(Q[:, i])[proved]), (name, "q", i)
+            with np.errstate(all="ignore"):
+                assert np.all((cond_fro(J) <= u_adj["fro"])[proved]), (name, "adjugate cond_F")
+                assert np.all((cond_2(J) <= u_adj["two"])[proved]), (name, "adjugate cond_2")
             checked += int(proved.sum())
+            bounded += int(np.sum(proved & np.isfinite(u_adj["two"])))
     assert checked > 100
+    assert bounded > 100 or J.shape[-1] > 4      # the adjugate form is of orders up to 4
 
 
 def test_interval_derivatives_contain_central_differences():
@@ -220,11 +229,15 @@ def test_condition_bounds_hold_over_interval_matrices():
     R = np.abs(rng.normal(size=(K, n, n))) * rng.choice([1e-4, 1e-2, 0.1], (K, 1, 1))
     J = [[Interval(M[:, i, k] - R[:, i, k], M[:, i, k] + R[:, i, k]) for k in range(n)] for i in range(n)]
     u2, uf = cond_2_upper(J), cond_fro_upper(J)
+    a2, af = cond_2_upper_adjugate(J), cond_fro_upper_adjugate(J)     # order 4: cofactors of order 3
     assert np.all(u2 <= uf)
+    assert np.sum(np.isfinite(af)) > K // 3
     for _ in range(30):
         S = M + R * rng.uniform(-1, 1, M.shape)
         assert np.all(cond_2(S) <= u2)
         assert np.all(cond_fro(S) <= uf)
+        assert np.all(cond_2(S) <= a2)
+        assert np.all(cond_fro(S) <= af)
     tight = (R.max(axis=(1, 2)) < 1e-3) & (np.arange(K) % 2 == 1)
     assert tight.sum() > 30
     assert np.all(u2[tight] < 1.01 * cond_2(M[tight]))

@@ -35,7 +35,7 @@ def test_checks_are_read(tmp_path):
                  + "checks: {certificate_budget: 123, integral_tolerance: 1e-3, integral_max_points: 5000}\n")
     c = load_config(f).checks
     assert (c.certificate_budget, c.integral_tolerance, c.integral_max_points) == (123, 1e-3, 5000)
-    assert load_config(DATA / "p4s_tiny.yaml").checks.certificate_budget == 200_000
+    assert load_config(DATA / "p4s_tiny.yaml").checks.certificate_budget == 300_000
 
 
 def test_no_budget_proves_nothing_and_says_so(tmp_path):

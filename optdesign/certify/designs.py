@@ -9,8 +9,11 @@ a disc in the first two axes), that
 * every pose is reachable (every leg closes),
 * the singularity constraint holds: the condition number of the config's
   first isotropy index (its convention: ``frobenius`` or ``two_norm``; else
-  cond_2) is <= the limit (:func:`.matrix.cond_fro_upper` or
-  :func:`.matrix.cond_2_upper`),
+  cond_2) is <= the limit: per box the smaller of the preconditioned bound
+  (:func:`.matrix.cond_fro_upper` or :func:`.matrix.cond_2_upper`) and the
+  adjugate's (:func:`.matrix.cond_fro_upper_adjugate` or
+  :func:`.matrix.cond_2_upper_adjugate`: det and adj J in mean-value form
+  from the enclosure's duals of J),
 * the actuator values lie within the stroke limits, when the config sets
   them (prismatic and strut legs; a revolute leg's angle is not enclosed,
   so a stroke limit with revolute legs leaves the design ``unknown``),
@@ -26,14 +29,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..linalg import cond_2, cond_fro
+from ..intervals.dual import Dual
+from ..intervals.interval import Interval
 from .bnb import branch_and_bound
-from ..intervals.matrix import cond_2_upper, cond_fro_upper
+from ..intervals.matrix import cond_2_upper, cond_2_upper_adjugate, cond_fro_upper, cond_fro_upper_adjugate
 
 __all__ = ["certify_design", "region_of", "DEFAULT_BUDGET"]
 
 #: box evaluations per design (a planar W needs a few hundred; the 6-D
 #: Gough-Stewart uses the whole budget and reports the share proved)
-DEFAULT_BUDGET = 200_000
+DEFAULT_BUDGET = 300_000
 
 
 def region_of(workspace) -> dict:
@@ -52,6 +57,17 @@ def region_of(workspace) -> dict:
     return {"lo": lo, "hi": hi, "disc": disc}
 
 
+def _take(x, idx):
+    """The boxes ``idx`` of nested lists of Interval / Dual (floats and None unchanged)."""
+    if isinstance(x, (list, tuple)):
+        return type(x)(_take(v, idx) for v in x)
+    if isinstance(x, Interval):
+        return x if x.lo.ndim == 0 else x[idx]
+    if isinstance(x, Dual):
+        return Dual(x.v[idx], [None if a is None else _take(a, idx) for a in x.d])
+    return x
+
+
 def _enclosure(mech):
     """(evaluate(lo, hi) -> dict, None) or (None, why not)."""
     try:
@@ -61,19 +77,22 @@ def _enclosure(mech):
 
 
 def certify_design(mech, region: dict, limit: float, convention: str = "two_norm",
-                   stroke_limits: tuple[float, float] | None = None, budget: int = DEFAULT_BUDGET) -> dict:
+                   stroke_limits: tuple[float, float] | None = None, budget: int = DEFAULT_BUDGET,
+                   adjugate: bool = True) -> dict:
     """The certificate of one design (``mech``: a mechanism instance of one
     design) over ``region`` (:func:`region_of`): a dict with ``status``
     (certified / refuted / unknown / not_supported), ``share_proved``,
     ``boxes``, ``seconds``, and for a refutation ``witness`` (the pose, SI)
     with ``value`` (the condition number there; inf where unreachable) and
-    ``reason`` (unreachable, stroke or singularity)."""
+    ``reason`` (unreachable, stroke or singularity).  ``adjugate=False``
+    uses the preconditioned bound alone (benchmarks/bench_certify.py compares)."""
     enc, why = _enclosure(mech)
     if enc is None:
         return {"status": "not_supported", "reason": why, "share_proved": 0.0, "boxes": 0}
     disc = region["disc"]
     cond = cond_fro if convention == "frobenius" else cond_2
     upper = cond_fro_upper if convention == "frobenius" else cond_2_upper
+    upper_adj = cond_fro_upper_adjugate if convention == "frobenius" else cond_2_upper_adjugate
 
     def inside(X):
         if disc is None:
@@ -91,7 +110,18 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
 
     def bound(lo, hi):
         e = enc(lo, hi)
-        ub = np.where(e["reach_lo"] > 0, upper(e["J"]), np.inf)
+        J = e["J"]
+        if not adjugate or e.get("J_dual") is None:
+            c = upper(J)
+        else:       # the cheaper bound first (measured: the adjugate's for cond_2), the other where it fails
+            pre = lambda J, Jd, Jm, lo, hi: upper(J)  # noqa: E731
+            first, second = (pre, upper_adj) if convention == "frobenius" else (upper_adj, pre)
+            c = first(J, e["J_dual"], e["J_mid"], lo, hi)
+            need = np.flatnonzero(~(c <= limit))
+            if need.size:
+                sub = _take((J, e["J_dual"], e["J_mid"]), need)
+                c[need] = np.minimum(c[need], second(*sub, lo[need], hi[need]))
+        ub = np.where(e["reach_lo"] > 0, c, np.inf)
         if stroke_limits is not None:
             s_lo, s_hi = stroke_limits
             for q in e["q"]:

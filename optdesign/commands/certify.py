@@ -11,7 +11,7 @@ def register(sub):
     p.add_argument("--design", action="append", metavar="NAME",
                    help="a named design of the config (repeatable; default: every named design)")
     p.add_argument("--budget", type=int, default=None, metavar="N",
-                   help="box evaluations per design (default 200000; 50000 for W of more than 3 free axes)")
+                   help="box evaluations per design (default 300000; 100000 for W of more than 3 free axes)")
     p.add_argument("--json", action="store_true", help="print the certificates as JSON")
     p.set_defaults(func=run)
 

@@ -24,7 +24,7 @@ CHECKS_KEYS = {"certificate_budget", "integral_tolerance", "integral_max_points"
 
 @dataclass(frozen=True)
 class ChecksSpec:
-    certificate_budget: int = 200_000
+    certificate_budget: int = 300_000
     integral_tolerance: float = 1e-4
     integral_max_points: int = 200_000
 

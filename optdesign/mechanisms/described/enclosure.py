@@ -127,7 +127,8 @@ class DescribedEnclosure:
         J = [[mean_value(e, m, lo, hi) for e, m in zip(row, mrow)] for row, mrow in zip(box["J"], at_mid["J"])]
         q = [None if x is None else mean_value(x, m, lo, hi) for x, m in zip(box["q"], at_mid["q"])]
         ok = box["ok"] & at_mid["ok"]
-        return {"reach_lo": np.where(ok, box["reach_lo"], -np.inf), "J": J, "q": q, "ok": ok}
+        return {"reach_lo": np.where(ok, box["reach_lo"], -np.inf), "J": J, "q": q, "ok": ok,
+                "J_dual": box["J"], "J_mid": at_mid["J"]}
 
     def _core(self, lo: np.ndarray, hi: np.ndarray, dual: bool) -> dict:
         C = self.C

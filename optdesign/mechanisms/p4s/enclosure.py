@@ -3,6 +3,14 @@ poses (optdesign.mechanisms.p4s: ``w_i = p + (rho - r_b) e_i``,
 ``disc_i = L^2 - |w_i|^2 + (m_i.w_i)^2``, ``J_i = m_i + (w_i - (m_i.w_i) m_i) / sqrt(disc_i)``,
 the row n_i / (n_i.m_i) of model.py rewritten with q_i = m_i.w_i - sqrt(disc_i)).
 
+Over a box the entries of J (and the legs' discriminants and strokes) are
+enclosed in mean-value form: interval derivatives over the box
+(:mod:`optdesign.intervals.dual`, seeded with the box's free coordinates)
+around the float-exact interval value at the box's midpoint, intersected with
+the natural interval extension.  ``evaluate`` also returns the duals of J over
+the box and J at the midpoints, for mean-value forms of functions of J
+(determinant, adjugate: :mod:`optdesign.intervals.matrix`).
+
 The branch directions e_i are enclosed with both their exact values
 (cos 120 deg = -1/2 ...) and the float ones of geometry.E, so the proof holds
 for the mechanism as defined and as computed.
@@ -11,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...intervals.dual import mean_value, seed
 from ...intervals.interval import Interval, cos_point, hull, point, sin_point
 
 __all__ = ["P4SEnclosure"]
@@ -39,9 +48,15 @@ class P4SEnclosure:
         self.m = [[-(c * self.e[i][0]), -(c * self.e[i][1]), s] for i in range(3)]
         self.off = self.rho - self.rb
 
-    def legs(self, lo: np.ndarray, hi: np.ndarray):
-        """Per leg (w, b = m.w, disc) over boxes lo, hi (K, 3)."""
-        p = [Interval(lo[:, k], hi[:, k]) for k in range(3)]
+    def legs(self, lo: np.ndarray, hi: np.ndarray, dual: bool = False):
+        """Per leg (w, b = m.w, disc) over boxes lo, hi (K, 3); with ``dual``
+        the coordinates that vary in some box are seeded as duals."""
+        p = []
+        for k in range(3):
+            if dual and np.any(hi[:, k] > lo[:, k]):
+                p.append(seed(lo[:, k], hi[:, k], k, 3))
+            else:
+                p.append(Interval(lo[:, k], hi[:, k]))
         out = []
         for i in range(3):
             w = [p[k] + self.off * self.e[i][k] for k in range(3)]
@@ -51,18 +66,30 @@ class P4SEnclosure:
             out.append((w, b, disc))
         return out
 
+    def _core(self, lo, hi, dual: bool):
+        J, q, disc = [], [], []
+        for i, (w, b, dc) in enumerate(self.legs(lo, hi, dual)):
+            root = dc.sqrt()
+            m = self.m[i]
+            J.append([(w[k] - b * m[k]) / root + m[k] for k in range(3)])
+            q.append(b - root)
+            disc.append(dc)
+        return J, q, disc
+
     def evaluate(self, lo: np.ndarray, hi: np.ndarray) -> dict:
         """``reach_lo`` (K,): a lower bound of min_i disc_i (> 0: every pose
         of the box reachable), ``J``: the interval Jacobian (3 x 3 of (K,)),
-        ``q``: the stroke intervals per leg."""
-        legs = self.legs(lo, hi)
-        J, q = [], []
+        ``q``: the stroke intervals per leg (both in mean-value form),
+        ``J_dual``: J's entries as duals over the boxes, ``J_mid``: J at the
+        boxes' midpoints (intervals)."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        mid = 0.5 * lo + 0.5 * hi
+        Jd, qd, dd = self._core(lo, hi, True)
+        Jm, qm, dm = self._core(mid, mid, False)
+        J = [[mean_value(e, m, lo, hi) for e, m in zip(row, mrow)] for row, mrow in zip(Jd, Jm)]
+        q = [mean_value(e, m, lo, hi) for e, m in zip(qd, qm)]
         reach = None
-        for i, (w, b, disc) in enumerate(legs):
-            root = disc.sqrt()
-            m = self.m[i]
-            row = [m[k] + (w[k] - b * m[k]) / root for k in range(3)]
-            J.append(row)
-            q.append(b - root)
-            reach = disc.lo if reach is None else np.minimum(reach, disc.lo)
-        return {"reach_lo": reach, "J": J, "q": q}
+        for e, m in zip(dd, dm):
+            lo_ = mean_value(e, m, lo, hi).lo
+            reach = lo_ if reach is None else np.minimum(reach, lo_)
+        return {"reach_lo": reach, "J": J, "q": q, "J_dual": Jd, "J_mid": Jm}
