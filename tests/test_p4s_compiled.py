@@ -258,7 +258,8 @@ def test_unsupported_index_takes_numpy_path():
     """The kernel answers the indices it computes and leaves the others to the
     numpy path (with its reachable mask); evaluate() then equals the numpy path
     for every index."""
-    cfg = _config(indices__dexterity={"kind": "dexterity"}, indices__manip={"kind": "manipulability"})
+    cfg = _config(indices__dexterity={"kind": "dexterity"}, indices__manip={"kind": "manipulability"},
+                  optimizer__weights__dexterity=0, optimizer__weights__manip=0)
     mech = P4S(**cfg.design("after"), **cfg.parameters)
     ans = mech.global_statistics(index_requests(cfg, list(cfg.indices)), np.zeros((1, 3)))
     assert set(ans[0]) == {"dynamic", "stiffness", "isotropy"}
