@@ -109,6 +109,8 @@ def test_nothing_imports_the_cli():
     ("optdesign.worstcase", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
     # config validates against the mechanisms' declarations, the workspace spec and the index kinds
     ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # derivatives of a local index from its matrices (plain numpy)
+    ("optdesign.local_derivatives", ()),
     # statistics over W of a population's local indices (compiled path or numpy), no config
     ("optdesign.statistics", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices")),
     # evaluate: the one place that builds mechanisms from a config
@@ -116,7 +118,7 @@ def test_nothing_imports_the_cli():
                             "optdesign.indices", "optdesign.worstcase", "optdesign.statistics")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
     ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
-                             "optdesign.indices", "optdesign.worstcase")),
+                             "optdesign.indices", "optdesign.worstcase", "optdesign.local_derivatives")),
     # the optimizer knows design vectors and objective values; the run folder is where it writes
     # units of what a user sees: from the config and the mechanism's declarations, through evaluate
     ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),

@@ -73,9 +73,11 @@ def test_summarize_usage_errors(tmp_path, capsys):
 
 def _space_config(name: str, optimizer: str) -> str:
     """batch_small.yaml's design space under another name and optimizer section."""
-    text = SMALL.read_text()
-    text = text.replace("name: batch_small", f"name: {name}")
-    return text.replace("optimizer: {population: 12, generations: 5, seed: 1}", f"optimizer: {optimizer}")
+    from conftest import edited_text
+
+    return edited_text(SMALL.read_text(), {"name: batch_small": f"name: {name}",
+                                           "optimizer: {extremes: {starts: 1, scan: 256}, population: 12, generations: 5, seed: 1}":
+                                           f"optimizer: {optimizer}"})
 
 
 def test_seeds_are_ranked_on_the_extremes_pooled_over_the_design_space(tmp_path, capsys):

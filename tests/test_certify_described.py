@@ -187,10 +187,11 @@ def test_a_run_certifies_every_reported_design(tmp_path):
         if c["status"] == "certified" and sig not in seen:
             seen.add(sig)
             assert np.all(mech.reachable(X))
-            assert np.max(cond_fro(mech.jacobian(X))) <= c["limit"], key
+            # p4s_tiny has no isotropy index: its singularity limit is on cond_2 (docs/config.md)
+            assert np.max(np.linalg.cond(mech.jacobian(X), 2)) <= c["limit"], key
         if c["status"] == "refuted":
             W = np.array([c["witness"]])
-            assert not mech.reachable(W)[0] or cond_fro(mech.jacobian(W))[0] > c["limit"], key
+            assert not mech.reachable(W)[0] or np.linalg.cond(mech.jacobian(W), 2)[0] > c["limit"], key
     md = (res.folder.path / "results.md").read_text()
     assert "## Certificates over the continuous workspace" in md
     assert f"| optimum | {certs['optimum']['status']}" in md.replace("REFUTED", "refuted")

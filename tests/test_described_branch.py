@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
-from optdesign.config import ConfigError, load_config, parse_config
+from optdesign.config import load_config, parse_config
 
 from cli_helpers import run_main
 from conftest import ROOT

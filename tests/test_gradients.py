@@ -24,7 +24,8 @@ from conftest import CONFIGS
 
 from optdesign.config import load_config
 from optdesign.evaluate import Evaluator
-from optdesign.gradients import derivatives, local_derivative
+from optdesign.gradients import derivatives
+from optdesign.local_derivatives import local_derivative
 from optdesign.indices import local_index
 
 RTOL = 1e-6
@@ -121,3 +122,19 @@ def test_the_smooth_conditioning_constraint_is_the_evaluators():
         assert np.allclose(np.max(d.constraints["singularity"], axis=1), np.log1p(g), rtol=1e-10, atol=1e-12)
         assert ev.worst_case
         assert d.constraints["singularity"].shape == (len(X), ev.workspace.n + 1)
+
+
+def test_local_derivatives_of_non_finite_or_singular_matrices_are_nan():
+    """A NaN Jacobian (an unreachable pose) or an exactly singular one gives
+    NaN values and derivatives, never a LinAlgError (LAPACK's SVD does not
+    converge on NaN)."""
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(4, 3, 3))
+    dJ = rng.normal(size=(4, 3, 3, 2))
+    J[1] = np.nan
+    J[2] = 0.0
+    for kind, conv in (("isotropy", "two_norm"), ("isotropy", "frobenius"), ("stiffness", None),
+                       ("manipulability", None)):
+        v, g = local_derivative(kind, conv, {}, J, dJ, J, dJ)
+        assert np.all(np.isfinite(v[[0, 3]])) and np.all(np.isfinite(g[[0, 3]])), kind
+        assert np.all(np.isnan(v[1])) and np.all(np.isnan(g[1])), kind

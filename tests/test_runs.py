@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import Interrupted
@@ -257,9 +258,9 @@ def test_run_command_errors_are_one_line(tmp_path):
 def test_an_index_with_weight_zero_stays_on_the_front(tmp_path):
     """An index with weight 0 gets no single-objective runs and no term in the
     weighted sum, but is still an objective of the Pareto front."""
-    text = SMALL.read_text().replace(
-        "optimizer: {population: 16, generations: 8,",
-        "optimizer: {weights: {dynamic: 1, stiffness: 1, isotropy: 0}, population: 10, generations: 3,")
+    text = edited_text(SMALL.read_text(), {
+        "population: 16, generations: 8,":
+        "weights: {dynamic: 1, stiffness: 1, isotropy: 0}, population: 10, generations: 3,"})
     cfg_path = tmp_path / "w0.yaml"
     cfg_path.write_text(text)
     res = start_run(load_config(cfg_path), seed=1, out=tmp_path / "runs")
