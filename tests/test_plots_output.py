@@ -131,3 +131,21 @@ def test_figure_titles_sit_below_the_plotly_toolbar(two_runs):
     assert fig.layout.margin.t == top + MODEBAR_PX and fig.layout.height == height + MODEBAR_PX
     Page("t").figure(fig)                                  # once only
     assert fig.layout.margin.t == top + MODEBAR_PX
+
+
+def test_convergence_with_positive_round_off_is_symlog_so_the_best_line_is_drawn():
+    """A best f of 5e-18 (round-off, shown as 0) with every value positive:
+    a log axis would leave the best line's zeros undrawn; symlog draws them."""
+    import matplotlib.pyplot as plt
+
+    from optdesign.optimize.report_plots import convergence_figure
+
+    best = [0.2, 1e-3, 5.4e-18, 5.4e-18]
+    fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [0.5, 0.1, 1e-2, 1e-4]))
+    try:
+        ax = fig.axes[0]
+        assert ax.get_yscale() == "symlog" and "round-off" in ax.get_title()
+        y = ax.lines[0].get_ydata()
+        assert y[-1] == 0.0 and ax.get_ylim()[0] <= 0.0
+    finally:
+        plt.close(fig)

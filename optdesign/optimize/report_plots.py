@@ -83,7 +83,7 @@ def convergence_figure(cfg: Config, hist: list[dict]):
     pos = vals[np.abs(vals) >= ROUND_OFF]
     title = f"{cfg.name}: convergence of the weighted sum (minimized)"
     scale = "linear"
-    if len(pos) and np.all(vals > 0):
+    if len(pos) and not zero and np.all(vals > 0):   # values shown as 0 cannot sit on a log axis
         ax.set_yscale("log")
         scale = "log scale"
     elif len(pos):
