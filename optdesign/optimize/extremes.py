@@ -33,6 +33,7 @@ from scipy.stats import qmc
 
 from .polish import distinct_best, polish_designs, term_value
 from .problem import DesignProblem, index_term
+from .prescan import evaluate_batches
 from .refine import observed
 
 __all__ = ["scan_size", "extremes_scan", "run_extremes", "snap", "evaluate_batches", "SNAP"]
@@ -44,8 +45,6 @@ SNAP_LOSS = 1e-9
 #: the local scan around an extreme's best polished design: its half-width
 #: (unit box), its designs and the starts polished from it
 LOCAL_WIDTH, LOCAL_SCAN, LOCAL_STARTS = 0.05, 256, 2
-#: designs per Evaluator call
-BATCH = 256
 
 
 def scan_size(n: int) -> int:
@@ -63,31 +62,6 @@ def extremes_scan(xl: np.ndarray, xu: np.ndarray, n: int) -> np.ndarray:
         corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T
         U = np.concatenate([U, corners, np.full((1, d), 0.5)])
     return xl + (xu - xl) * U
-
-
-def evaluate_batches(evaluator, X: np.ndarray, on_batch=None) -> tuple[dict, dict, np.ndarray]:
-    """(values, constraints, feasible) of designs X, in Evaluator batches;
-    feasible: every constraint satisfied and every value finite."""
-    names = evaluator.index_names + list(evaluator.extra)
-    vals = {k: [] for k in names}
-    cons = {k: [] for k in evaluator.constraint_names}
-    for i in range(0, len(X), BATCH):
-        with np.errstate(all="ignore"):
-            r = evaluator(X[i:i + BATCH])
-        for k in vals:
-            vals[k].append(np.asarray(r["values"][k], dtype=float))
-        for k in cons:
-            cons[k].append(np.asarray(r["constraints"][k], dtype=float))
-        if on_batch is not None:
-            on_batch(min(i + BATCH, len(X)), len(X))
-    vals = {k: np.concatenate(v) if v else np.zeros(0) for k, v in vals.items()}
-    cons = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cons.items()}
-    feas = np.ones(len(X), dtype=bool)
-    for v in cons.values():
-        feas &= v <= 0
-    for v in vals.values():
-        feas &= np.isfinite(v)
-    return vals, cons, feas
 
 
 def snap(x: np.ndarray, xl: np.ndarray, xu: np.ndarray, tol: float = SNAP) -> np.ndarray:

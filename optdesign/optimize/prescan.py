@@ -21,7 +21,7 @@ from scipy.stats import qmc
 from .polish import distinct_best, term_value
 from .refine import observed
 
-__all__ = ["prescan_designs", "run_prescan", "best_designs", "distinct_best", "BATCH"]
+__all__ = ["prescan_designs", "run_prescan", "best_designs", "distinct_best", "BATCH", "evaluate_batches"]
 
 #: designs per Evaluator call
 BATCH = 256
@@ -39,14 +39,11 @@ def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.nda
     return xl + (xu - xl) * U
 
 
-def run_prescan(evaluator, n: int, seed: int, on_batch=None) -> tuple[dict, list[dict]]:
-    """(result, rows): the stage result (the feasible designs and their values)
-    and one CSV row per design scanned; ``on_batch(done, total)`` before the
-    first batch and after each (the designs evaluated so far: the run's progress)."""
-    X = prescan_designs(evaluator.xl, evaluator.xu, n, seed)
-    if on_batch is not None:
-        on_batch(0, len(X))
-    vals = {k: [] for k in evaluator.index_names + list(evaluator.extra)}
+def evaluate_batches(evaluator, X: np.ndarray, on_batch=None) -> tuple[dict, dict, np.ndarray]:
+    """(values, constraints, feasible) of designs X, in Evaluator batches;
+    feasible: every constraint satisfied and every value finite."""
+    names = evaluator.index_names + list(evaluator.extra)
+    vals = {k: [] for k in names}
     cons = {k: [] for k in evaluator.constraint_names}
     for i in range(0, len(X), BATCH):
         with np.errstate(all="ignore"):
@@ -57,9 +54,24 @@ def run_prescan(evaluator, n: int, seed: int, on_batch=None) -> tuple[dict, list
             cons[k].append(np.asarray(r["constraints"][k], dtype=float))
         if on_batch is not None:
             on_batch(min(i + BATCH, len(X)), len(X))
-    vals = {k: np.concatenate(v) for k, v in vals.items()}
-    cons = {k: np.concatenate(v) for k, v in cons.items()}
-    feas = np.all([v <= 0 for v in cons.values()], axis=0) & np.all([np.isfinite(v) for v in vals.values()], axis=0)
+    vals = {k: np.concatenate(v) if v else np.zeros(0) for k, v in vals.items()}
+    cons = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cons.items()}
+    feas = np.ones(len(X), dtype=bool)
+    for v in cons.values():
+        feas &= v <= 0
+    for v in vals.values():
+        feas &= np.isfinite(v)
+    return vals, cons, feas
+
+
+def run_prescan(evaluator, n: int, seed: int, on_batch=None) -> tuple[dict, list[dict]]:
+    """(result, rows): the stage result (the feasible designs and their values)
+    and one CSV row per design scanned; ``on_batch(done, total)`` before the
+    first batch and after each (the designs evaluated so far: the run's progress)."""
+    X = prescan_designs(evaluator.xl, evaluator.xu, n, seed)
+    if on_batch is not None:
+        on_batch(0, len(X))
+    vals, cons, feas = evaluate_batches(evaluator, X, on_batch)
     names = evaluator.free
     rows = []
     for i in range(len(X)):
