@@ -88,7 +88,7 @@ def convergence_figure(cfg: Config, hist: list[dict]):
         scale = "log scale"
     elif len(pos):
         # 0 on a linear band one decade below the smallest value that is not round-off
-        ax.set_yscale("symlog", linthresh=float(np.min(np.abs(pos))) / 10, linscale=0.5)
+        ax.set_yscale("symlog", linthresh=float(np.min(np.abs(pos))) / 10, linscale=1.5)
         scale = "symlog"
     if zero:
         title += f"\n(|f| < {ROUND_OFF:g} shown as 0: round-off)"
