@@ -59,6 +59,8 @@ def test_runs_a_benchmark_and_returns_its_exit_status(capfd):
     assert "fast" not in out["local"] and "reproduce" not in out
     assert main(["bench", "bench_throughput", "--points", "0"]) == 2     # the script's own usage error
     assert "must be positive" in capfd.readouterr().err
+    assert main(["bench", "throughput", "--help"]) == 0                  # the options after NAME are the script's
+    assert "usage: bench_throughput" in capfd.readouterr().out
 
 
 @pytest.mark.slow
