@@ -32,11 +32,14 @@ def register(sub):
 
 
 def benchmarks_dir() -> Path | None:
-    """The repository's ``benchmarks/`` folder beside the (editable) package, or None."""
+    """The repository's ``benchmarks/`` folder beside the (editable) package, or
+    None (installed from a wheel: no repository around the package; a
+    ``benchmarks`` folder of some other project in site-packages is not ours)."""
     import optdesign
 
-    d = Path(optdesign.__file__).resolve().parent.parent / "benchmarks"
-    return d if d.is_dir() else None
+    root = Path(optdesign.__file__).resolve().parent.parent
+    d = root / "benchmarks"
+    return d if d.is_dir() and (root / "pyproject.toml").is_file() else None
 
 
 def benchmarks(folder: Path) -> dict[str, Path]:
