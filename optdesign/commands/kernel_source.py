@@ -21,8 +21,8 @@ def _check_target(path: str) -> None:
     import os
     from pathlib import Path
 
-    from ._common import UsageError, check_out_file
     from ..config.reader import plain
+    from ._common import UsageError, check_out_file
 
     check_out_file(path, "--out", suffixes=(".py",), kind="Python")
     p = Path(path)
@@ -37,8 +37,8 @@ def _check_target(path: str) -> None:
 
 
 def run(args) -> int:
-    from ._common import UsageError, open_config
     from ..evaluate import build
+    from ._common import UsageError, open_config
 
     if args.out is not None:
         _check_target(args.out)

@@ -66,9 +66,36 @@ from ._layout import (BA, BLK, BS, BW, CHUNK, COL0, CT_ROLL, DET, DYN, FCEN, FCO
 # the rest of the layout, read by compiled.py and the tests as K.<name>
 from ._layout import CT_PITCH, FFIX, FR_ROWS, NEWTON, NEWTON_DYN, NF, NL, TAU, VF2, VS, VX  # noqa: F401
 
+#: numba's cache of these kernels watches this file only, while the code of
+#: _codegen.py and the numbers of _layout.py are compiled into them: this
+#: file records their digest, so that editing them means editing this file
+#: too (tests/test_kernel_generators.py checks it); until then the kernels
+#: compile without the cache (a warning says so), never from a stale one
+GENERATOR_DIGEST = "250a48300b42f785"
+
+
+def generator_digest() -> str:
+    """sha256 (first 16 hex digits) of _codegen.py and _layout.py as they are now."""
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.sha256()
+    for name in ("_codegen.py", "_layout.py"):
+        h.update(Path(__file__).with_name(name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+if generator_digest() != GENERATOR_DIGEST:
+    import warnings
+
+    warnings.warn(f"{__name__}: _codegen.py or _layout.py changed (digest {generator_digest()}, recorded "
+                  f"{GENERATOR_DIGEST}): the kernels compile without numba's cache until GENERATOR_DIGEST is updated",
+                  RuntimeWarning, stacklevel=1)
+    _NJIT = {**_NJIT, "cache": False}
+
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
-_NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+_NJIT_RED = {**_NJIT, "fastmath": {"reassoc", "nsz"}}
 #: options of the overloads (their code is compiled into the cached kernels that call them)
 _GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
 
@@ -574,27 +601,7 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
 # length of the tuple nt) and the spec (cspec) when numba first types a call
 # (:mod:`._codegen` writes the source; ``optdesign kernel-source`` prints it).
 # Each is an @overload of a stub below; the code is compiled into (and cached
-# with) the kernel that calls it.  numba's cache only watches this file, so
-# it records the digest of the generator and layout sources (GENERATOR_DIGEST,
-# checked at import): editing them changes this file and invalidates the cache.
-GENERATOR_DIGEST = "250a48300b42f785"
-
-
-def generator_digest() -> str:
-    """sha256 (first 16 hex digits) of _codegen.py and _layout.py as they are now."""
-    import hashlib
-    from pathlib import Path
-
-    h = hashlib.sha256()
-    for name in ("_codegen.py", "_layout.py"):
-        h.update((Path(__file__).with_name(name)).read_bytes())
-    return h.hexdigest()[:16]
-
-
-if generator_digest() != GENERATOR_DIGEST:
-    raise RuntimeError("optdesign/mechanisms/described/_codegen.py or _layout.py changed: set GENERATOR_DIGEST in "
-                       f"_kernels.py to {generator_digest()!r}, so that numba's cache of the kernels is renewed")
-
+# with) the kernel that calls it (numba's cache: see GENERATOR_DIGEST).
 _GEN_NAMES = {"math": math, "np": np, "_u": _u, "_lmax3_point": _lmax3_point, "_bisect_flagged": _bisect_flagged,
               **{k: getattr(_layout, k) for k in GLOBALS if hasattr(_layout, k)}}
 
