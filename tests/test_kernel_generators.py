@@ -233,7 +233,7 @@ def test_the_spec_and_its_numba_arguments():
 def test_the_digest_of_the_generators_is_current():
     """_kernels.py records the digest of _codegen.py and _layout.py (numba's
     cache watches _kernels.py only): editing those must change it."""
-    assert K.GENERATOR_DIGEST == K.generator_digest()
+    assert K.GENERATOR_DIGEST == K.generator_digest(), f"set GENERATOR_DIGEST in _kernels.py to {K.generator_digest()!r}"
 
 
 def _described_configs():
