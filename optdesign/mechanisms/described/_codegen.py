@@ -57,7 +57,10 @@ class KernelSpec:
     # argument's type: the size n is the length of a tuple of zeros (``nt``),
     # the rest the field names of a record dtype (``cspec``: an array (1,)
     # whose fields k<i>_<kind>, rods_<0|1>, rot_<0|1> say them).  Both are
-    # made here and read back here (an @overload sees the types), nowhere else.
+    # types numba dispatches on, caches and passes through the parallel loop
+    # as they are (a numba type of the spec itself would need a typeof, a data
+    # model and unboxing of its own).  Made here, read back here (an @overload
+    # sees the types), nowhere else.
     def numba_args(self) -> tuple[tuple, np.ndarray]:
         """(nt, cspec): the arguments that carry this spec into the kernel."""
         fields = ([(f"k{i}_{k}", "u1") for i, k in enumerate(self.kinds)]
@@ -72,8 +75,7 @@ class KernelSpec:
         return cls(tuple(kinds), "rods_1" in names, "rot_1" in names)
 
 
-def size_of_type(nt_type) -> int:
-    """The size n from the numba type of ``nt`` (a tuple of n zeros)."""
+def size_of_type(nt_type) -> int:   # the size n from the numba type of ``nt`` (a tuple of n zeros)
     return nt_type.count
 
 
@@ -100,8 +102,7 @@ def _rows(name, n, sx="", j="j"):
             for r in range(n) for c in range(n)]
 
 
-def _sym(a, b, sx=""):
-    """Entry (a, b) of the symmetric g (its upper triangle is stored)."""
+def _sym(a, b, sx=""):   # entry (a, b) of the symmetric g (its upper triangle is stored)
     return f"g{min(a, b)}_{max(a, b)}{sx}"
 
 
@@ -371,8 +372,7 @@ def routine_source(stub, n, spec=None, name="impl"):
 
 
 def routines(spec: KernelSpec) -> dict[str, str]:
-    """{stub: source of a function named as the stub} for every routine the
-    kernel generates for this spec."""
+    """{stub: the source of a function of that name} for each routine generated for spec."""
     out = {s: routine_source(s, spec.n, spec, s) for s in ROUTINES}
     return {k: v for k, v in out.items() if v is not None}
 

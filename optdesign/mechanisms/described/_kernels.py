@@ -43,6 +43,10 @@ the reachable mask:
 The reductions: fixed chunks of CHUNK points per design, each with its count,
 sum, min, max and centred sum of squares in point order, combined in chunk
 order, so results do not depend on the number of threads.
+
+The memory layout (the row and column numbers above) is :mod:`._layout`; the
+straight-line routines generated per size and spec are written by
+:mod:`._codegen` (``optdesign kernel-source CONFIG`` prints them).
 """
 from __future__ import annotations
 
@@ -71,7 +75,7 @@ from ._layout import CT_PITCH, FFIX, FR_ROWS, NEWTON, NEWTON_DYN, NF, NL, TAU, V
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_kernel_generators.py checks it); until then the kernels
 #: compile without the cache (a warning says so), never from a stale one
-GENERATOR_DIGEST = "250a48300b42f785"
+GENERATOR_DIGEST = "ad6edd6efd58f955"
 
 
 def generator_digest() -> str:
