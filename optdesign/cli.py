@@ -64,7 +64,7 @@ from .config import ConfigError  # noqa: E402
 
 #: order in which commands are listed in --help
 _ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
-          "export", "status", "bench", "validate-config", "validate-dynamics"]
+          "export", "status", "bench", "validate-config", "validate-dynamics", "kernel-source"]
 
 
 class _Parser(argparse.ArgumentParser):

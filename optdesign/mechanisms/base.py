@@ -223,6 +223,12 @@ class Mechanism:
         bitwise.  Every answer must equal the numpy path's to 1e-12 relative."""
         return None
 
+    def kernel_source(self, title: str) -> str | None:
+        """The generated code of this mechanism's compiled kernel as the source
+        of a module (its header names ``title``), or None: the mechanism has no
+        generated kernel (a hand-written one, or none)."""
+        return None
+
     def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's local values for these requests at the points X
         (N, dof): ``(values, reachable)`` with ``values[request.name]`` (D, N)

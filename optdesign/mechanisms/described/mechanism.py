@@ -304,6 +304,12 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return global_statistics(self, requests, X, want_max_cond)
 
+    def kernel_source(self, title: str) -> str:
+        """The generated routines of the compiled kernel for this shape (:mod:`._codegen`)."""
+        from .compiled import kernel_source
+
+        return kernel_source(self, title)
+
     def invalid_designs(self) -> np.ndarray:
         """(D,) or (): designs whose physical quantities are impossible (a
         negative mass or inertia, a rod count that is not a whole number from
