@@ -29,16 +29,7 @@ from ...fast.merge import add_points
 from ...linalg import cond_2_of, cond_fro_of, finite_stack, sigma_max_of, sigma_min_of, singular_values
 from ..base import IndexRequest
 
-__all__ = ["IndexRequest", "requests_of", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
-
-def requests_of(config, names) -> list:
-    """IndexRequests for the config's indices ``names``."""
-    out = []
-    for n in names:
-        s = config.indices[n]
-        out.append(IndexRequest(n, s.kind, s.convention, tuple(sorted((s.options or {}).items()))))
-    return out
-
+__all__ = ["IndexRequest", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
 
 KERNELS = KernelModule("optdesign.mechanisms.described._kernels")
 
