@@ -9,8 +9,8 @@ This table drives
 * the checks and their messages (:meth:`Key.read`, with the toolkit of
   :mod:`optdesign.checking`);
 * the key tables of docs/config.md, between ``<!-- keys:SECTION -->`` and
-  ``<!-- /keys:SECTION -->`` (:func:`markdown_table`; regenerate with
-  ``python -m optdesign.config.keys --write-docs docs/config.md``);
+  ``<!-- /keys:SECTION -->`` (:mod:`.keydocs`; regenerate with
+  ``python -m optdesign.config.keydocs --write-docs docs/config.md``);
 * the hostile test cases (:meth:`Key.invalid_values`, tests/test_config_keys.py).
 
 A key marked ``custom`` is read by its section's own code (its value depends on
@@ -20,15 +20,13 @@ and its place among the allowed keys.
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 from typing import Any
 
 from ..checking import Checker, Interval, Options, join, tname
 from ..workspace import MAX_POINTS
 
-__all__ = ["REQUIRED", "Key", "Section", "TOP", "WORKSPACE", "OPTIMIZER", "CHECKS", "SECTIONS", "spec_class",
-           "markdown_table", "update_docs"]
+__all__ = ["REQUIRED", "Key", "Section", "TOP", "WORKSPACE", "OPTIMIZER", "CHECKS", "SECTIONS", "spec_class"]
 
 
 class _Required:
@@ -60,6 +58,8 @@ class Key:
     default_doc: str | None = None  # docs: the default column
     where: dict = dataclasses.field(default_factory=dict)  # sibling values under which the key is read (None: absent)
     invalid: tuple = ()             # invalid values beyond those the type and constraint give
+    example: Any = None             # a valid value (tests; None: the default)
+    nullable: bool = False          # null is the same as leaving the key out
 
     @property
     def field_name(self) -> str | None:
@@ -112,6 +112,8 @@ class Key:
             out += c.outside(integer=t == "integer")
         if isinstance(c, Options):
             out += ([c.values[0] + "x"] if t == "list" else c.values[0] + "x",)
+        if self.nullable:
+            out = tuple(v for v in out if v is not None)
         return out + self.invalid
 
     # ------------------------------------------------------------------ docs
@@ -226,7 +228,7 @@ TOP = Section("", (
     Key("name", "name", None, custom=True, type_doc="name (see Names)",
         default_doc="file name without `.yaml`, made safe", invalid=("../up", "", "x" * 101),
         doc="used in output folder names (`runs/<name>-s<seed>-...`, `indices/<name>-<design>/`)"),
-    Key("description", "string", None, doc="free text, not interpreted"),
+    Key("description", "string", None, nullable=True, example="a config", doc="free text, not interpreted"),
     Key("parameters", "mapping", None, custom=True, default_doc="mechanism defaults",
         doc="fixed (not optimized) parameters", invalid=({"no_such_parameter": 1},)),
     Key("design_variables", "mapping", REQUIRED, custom=True, doc="the design parameters: value and optional bounds"),
@@ -243,25 +245,28 @@ TOP = Section("", (
 
 _SEED = Interval(0, 2 ** 32 - 1)
 _GRID_OFF = {"step": None}
+_CYLINDER = {"type": "cylinder", "axes": {"z": 0.57}}
 WORKSPACE = Section("workspace", (
     Key("type", "string", "box", check=Options(("box", "cylinder")), doc="region shape"),
     Key("axes", "mapping", REQUIRED, custom=True,
         doc="per pose axis (`x`, `y`, `z` for `p4s`): a number (the axis is fixed) or `[lower, upper]`"),
     Key("radius", "number", None, check=Interval(0, None, "neither"), custom=True, unit="the block's `unit`",
+        where=_CYLINDER, example=0.04,
         default_doc="required for `cylinder`", doc="disc radius in the first two axes"),
-    Key("center", "pair", (0.0, 0.0), custom=True, type_doc="`[x, y]`", default_doc="`[0, 0]`",
+    Key("center", "point", (0.0, 0.0), custom=True, type_doc="`[x, y]`", default_doc="`[0, 0]`",
+        where={**_CYLINDER, "radius": 0.04}, example=[0.0, 0.01], invalid=("abc", 1.0, [1.0], [float("nan"), 0.0]),
         doc="disc centre (`cylinder`)"),
     Key("sampling", "string", "grid",
         check=Options(("grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random", "adaptive")),
         doc="how points are placed (each is a quadrature of the integral mean over W, below); "
             "`adaptive`: each global index integrated to a `tolerance`"),
-    Key("step", "number", None, check=Interval(0, None, "neither"), custom=True, invalid=(1e-9,),
+    Key("step", "number", None, check=Interval(0, None, "neither"), custom=True, invalid=(1e-9,), example=0.05,
         doc="grid spacing (a grid needs `step` or `points_per_axis`, not both)"),
-    Key("points_per_axis", "integer", None, check=Interval(1, MAX_POINTS), custom=True, where=_GRID_OFF,
+    Key("points_per_axis", "integer", None, check=Interval(1, MAX_POINTS), custom=True, where=_GRID_OFF, example=3,
         type_doc="integer 1–10,000,000 (`gauss`: from 2)",
         doc="grid points per free axis (`linspace`); Gauss–Legendre nodes per free axis"),
     Key("points", "integer", None, check=Interval(1, MAX_POINTS), custom=True,
-        where={"step": None, "sampling": "sobol"},
+        where={"step": None, "sampling": "sobol"}, example=16,
         default_doc="required for non-grid sampling (and only there)",
         doc="number of samples; for `rqmc` the points of each scrambling, a power of 2"),
     Key("scramblings", "integer", 8, check=Interval(2, 1024), custom=True,
@@ -277,7 +282,7 @@ WORKSPACE = Section("workspace", (
     Key("seed", "integer", 0, check=_SEED, type_doc="integer 0 – 2³²−1",
         doc="seed of the quasi-random/random sampler (reproducible); not taken by `gauss`"),
     Key("unit", "string", None, check=Options(("m", "mm", "rad", "deg")), custom=True, default_doc="SI",
-        invalid=("deg",),
+        invalid=("deg",), nullable=True, example="mm", where={"step": 50, "axes": {"x": [-50, 50], "y": [-50, 50], "z": 570}},
         doc="unit of every axis value, `radius` and `center` in this block; it must suit every axis it applies to "
             "(lengths: `m`/`mm`, angles: `rad`/`deg`; the UPS+UPR+S's sines take none)"),
 ))
@@ -298,7 +303,7 @@ OPTIMIZER = Section("optimizer", (
         doc="`paper_ga` only: elites kept each generation"),
     Key("fitness_scaling", "string", "rank", check=Options(("rank", "linear")),
         doc="`paper_ga` only: the roulette's fitness"),
-    Key("prescan", "integer", None, check=Interval(0, 1_000_000), annotation="int | None",
+    Key("prescan", "integer", None, check=Interval(0, 1_000_000), annotation="int | None", example=64,
         default_doc="the smaller of 2048 and `population` × `generations`",
         doc="designs of the quasi-random pre-scan of the box (scrambled Sobol, rounded up to a power of two; the "
             "box's corners and centre are added when there are at most an eighth as many); its best feasible "
@@ -311,26 +316,27 @@ OPTIMIZER = Section("optimizer", (
             "below); 0: no multi-start. The multi-start is part of the polish: with `polish: 0` it does not run "
             "either (a run then has the weaker extremes of its seeded searches alone, which tests use to build "
             "that case)"),
-    Key("extremes.scan", "integer", 4096, check=Interval(1, 1_000_000), default_doc="4096",
+    Key("extremes.scan", "integer", 4096, check=Interval(1, 1_000_000),
         doc="designs of the multi-start's fixed scan of the box (Sobol scrambled with the fixed seed 0, rounded "
             "up to a power of two; the corners and centre are added when there are at most a quarter as many)"),
     Key("seed", "integer", 1, check=_SEED, type_doc="integer 0 – 2³²−1", doc="random seed"),
     Key("weights", "mapping", dict, custom=True, annotation="dict[str, float]", type_doc="`{INDEX: number ≥ 0}`",
-        default_doc="1 for every index", invalid=({"dynamic": -1},),
+        default_doc="1 for every index", invalid=({"dynamic": -1},), example={"dynamic": 1, "stiffness": 0},
         doc="weights of the normalized sum (eq. 40); when given, every index needs one (give 0 to leave an index "
             "out; a missing index is an error); at least one positive"),
     Key("pareto.algorithms", "list", ("nsga2", "nsga3"), check=Options(("nsga2", "nsga3")), doc="Pareto runs"),
     Key("pareto.population", "integer", 100, check=_POP,
         doc="NSGA-III gets the fewest Das–Dennis reference directions that are at least this many, and a "
             "population of that count"),
-    Key("pareto.generations", "integer", 100, check=Interval(1, 100_000), doc=""),
+    Key("pareto.generations", "integer", 100, check=Interval(1, 100_000), doc="generations of each Pareto run"),
     Key("extra_objectives", "list", (), custom=True, type_doc="list of the mechanism's (`base_radius`, "
         "`overall_radius` for `p4s`)", invalid=(["no_such_objective"],),
+        example=["base_radius"],
         doc="compactness objectives added to the Pareto runs (r_b; max(r_a, r_b))"),
     Key("singularity_threshold", "number", 1e3, check=Interval(0, None, "neither"),
         doc="designs whose largest local cond(J) over W exceeds this are infeasible (the cond of the config's "
             "first isotropy index, in its convention; cond_2 where the config has none)"),
-    Key("stroke_limits", "pair", None, unit="m", default_doc="none",
+    Key("stroke_limits", "pair", None, unit="m", default_doc="none", example=[-10.0, 10.0],
         doc="actuator values outside this range anywhere in W make a design infeasible"),
     Key("worst_case", "boolean", True,
         doc="`true`: the local constraints (cond ≤ limit, reach, strokes) must hold at every pose of the "
@@ -361,53 +367,3 @@ CHECKS = Section("checks", (
 ))
 
 SECTIONS = {"top": TOP, "workspace": WORKSPACE, "optimizer": OPTIMIZER, "checks": CHECKS}
-
-
-# --------------------------------------------------------------------------- docs
-def markdown_table(section: Section) -> str:
-    """The docs/config.md table of a section's keys."""
-    rows = ["| key | type | default | meaning |", "|---|---|---|---|"]
-    for k in section.keys:
-        rows.append(f"| `{k.name}` | {k.type_text()} | {k.default_text()} | {k.doc} |")
-    return "\n".join(rows)
-
-
-def update_docs(text: str) -> str:
-    """``text`` with every block between ``<!-- keys:NAME -->`` and
-    ``<!-- /keys:NAME -->`` replaced by the table of section NAME."""
-    for name, section in SECTIONS.items():
-        start, end = f"<!-- keys:{name} -->", f"<!-- /keys:{name} -->"
-        if start not in text:
-            continue
-        a = text.index(start) + len(start)
-        b = text.index(end, a)
-        text = text[:a] + "\n" + markdown_table(section) + "\n" + text[b:]
-    return text
-
-
-def main(argv=None) -> int:
-    """``python -m optdesign.config.keys --write-docs docs/config.md`` (or
-    ``--check docs/config.md``: exit 1 when the file's tables are not the table's)."""
-    import argparse
-    from pathlib import Path
-
-    p = argparse.ArgumentParser(prog="python -m optdesign.config.keys")
-    g = p.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write-docs", metavar="FILE")
-    g.add_argument("--check", metavar="FILE")
-    a = p.parse_args(argv)
-    path = Path(a.write_docs or a.check)
-    text = path.read_text(encoding="utf-8")
-    new = update_docs(text)
-    if a.check:
-        if new != text:
-            print(f"{path}: the key tables differ from optdesign/config/keys.py; run with --write-docs", file=sys.stderr)
-            return 1
-        return 0
-    if new != text:
-        path.write_text(new, encoding="utf-8")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
