@@ -63,7 +63,6 @@ class _Checker(Checker):
 
 _CHECK = _Checker()
 _fail = _CHECK.fail
-_tname = tname
 _mapping = _CHECK.mapping
 _only = _CHECK.only
 _number = _CHECK.number
@@ -82,7 +81,7 @@ def _expr(v: Any, path: str, names) -> tuple:
 
 def _vec(v: Any, path: str, names) -> tuple:
     if not isinstance(v, (list, tuple)) or len(v) != 3:
-        _fail(path, f"expected a list of 3 expressions [x, y, z], got {_tname(v)}")
+        _fail(path, f"expected a list of 3 expressions [x, y, z], got {tname(v)}")
     return tuple(_expr(c, f"{path}[{i}]", names) for i, c in enumerate(v))
 
 
@@ -150,7 +149,7 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
         default_names = roles
     cn = m.get("coordinates", list(default_names))
     if not isinstance(cn, list) or len(cn) != len(roles):
-        _fail(f"{path}.coordinates", f"expected a list of {len(roles)} names ({', '.join(roles)} in this order), got {_tname(cn)}")
+        _fail(f"{path}.coordinates", f"expected a list of {len(roles)} names ({', '.join(roles)} in this order), got {tname(cn)}")
     for i, c in enumerate(cn):
         if not isinstance(c, str) or not _NAME.match(c):
             _fail(f"{path}.coordinates[{i}]", f"expected a name of letters, digits and '_', got {shorten(c)}")
@@ -190,7 +189,7 @@ def _platform(raw: Any, path: str, names) -> PlatformSpec:
             d = tuple(_expr(c, f"{p}[{i}]", names) for i, c in enumerate(v))
             inertia = ((d[0], _ZERO, _ZERO), (_ZERO, d[1], _ZERO), (_ZERO, _ZERO, d[2]))
         else:
-            _fail(p, f"expected [Ixx, Iyy, Izz] or a mapping of xx, yy, zz, xy, xz, yz (kg m^2), got {_tname(v)}")
+            _fail(p, f"expected [Ixx, Iyy, Izz] or a mapping of xx, yy, zz, xy, xz, yz (kg m^2), got {tname(v)}")
     com = _vec(m["centre_of_mass"], f"{path}.centre_of_mass", names) if m.get("centre_of_mass") is not None else (_ZERO,) * 3
     return PlatformSpec(mass, inertia, com)
 
@@ -205,7 +204,7 @@ def _turns(pat: Any, path: str, names) -> list[tuple[tuple, tuple]]:
     unit = _CHECK.string(m.get("unit", "rad"), f"{path}.unit", choices={"rad", "deg"})
     ang = _require(m, "angles", path)
     if not isinstance(ang, list) or not 1 <= len(ang) <= MAX_LEGS:
-        _fail(f"{path}.angles", f"expected a list of 1 to {MAX_LEGS} angles, got {_tname(ang)}")
+        _fail(f"{path}.angles", f"expected a list of 1 to {MAX_LEGS} angles, got {tname(ang)}")
     scale = ("num", math.pi / 180.0) if unit == "deg" else None
     angles = []
     for i, a in enumerate(ang):
@@ -281,7 +280,7 @@ def _leg_group(raw: Any, path: str, names, counters: dict, start: int) -> list[L
     if "actuators" in m:
         acts = m["actuators"]
         if not isinstance(acts, list) or len(acts) != len(turns):
-            _fail(f"{path}.actuators", f"expected a list of {len(turns)} names (one per leg of the group), got {_tname(acts)}")
+            _fail(f"{path}.actuators", f"expected a list of {len(turns)} names (one per leg of the group), got {tname(acts)}")
         for i, a in enumerate(acts):
             if not isinstance(a, str) or not _NAME.match(a):
                 _fail(f"{path}.actuators[{i}]", f"expected a name of letters, digits and '_', got {shorten(a)}")
@@ -320,7 +319,7 @@ def parse_description(raw: Any, path: str = "mechanism", label: str | None = Non
     platform = _platform(m.get("platform"), f"{path}.platform", names)
     legs_raw = _require(m, "legs", path)
     if not isinstance(legs_raw, list) or not legs_raw:
-        _fail(f"{path}.legs", f"expected a list of leg groups, got {_tname(legs_raw)}")
+        _fail(f"{path}.legs", f"expected a list of leg groups, got {tname(legs_raw)}")
     legs: list[LegSpec] = []
     counters: dict = {}
     for i, g in enumerate(legs_raw):
