@@ -315,8 +315,9 @@ _YAML11_BOOL = {"yes", "no", "on", "off", "y", "n"}
 
 
 def _yaml11_hint(value: Any) -> str:
-    """Why a string a YAML 1.1 reader would have turned into a number or a
-    boolean is not one here (see optdesign.config.yamlsafe)."""
+    """The string itself after its type ("got a string 'abc'"), and why a
+    string a YAML 1.1 reader would have turned into a number or a boolean is
+    not one here (see optdesign.config.yamlsafe)."""
     if not isinstance(value, str):
         return ""
     v = value.strip()
@@ -326,4 +327,4 @@ def _yaml11_hint(value: Any) -> str:
         return f" {shorten(value)} (yes/no/on/off are strings here, not booleans; write true or false, or a number)"
     if re.match(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?$", v) and "_" in v:
         return f" {shorten(value)} (digits grouped with '_' are not read as a number; write them without)"
-    return f" {shorten(value)}" if len(v) < 40 and re.match(r"^[-+0-9.eE]+$", v) else ""
+    return f" {shorten(value)}"
