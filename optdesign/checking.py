@@ -163,7 +163,7 @@ class Interval:
         if self.contains(x):
             return None
         also = f"{_g(self.also[0])} ({self.also[1]}) or " if self.also is not None else ""
-        return f"expected {also}{self.what or 'a number'} in {self.text()}, got {_g(x)}"
+        return f"expected {also}{self.what or 'a number'} in {self.text()}, got {shorten(x)}"
 
     def outside(self, integer: bool = False) -> tuple:
         """Values just outside the range (the invalid values a test tries)."""
