@@ -17,7 +17,7 @@ from typing import Any
 from .keys import CHECKS, spec_class
 from .reader import Reader
 
-__all__ = ["ChecksSpec", "checks_section", "CHECKS_KEYS"]
+__all__ = ["CHECKS_KEYS", "ChecksSpec", "checks_section"]
 
 CHECKS_KEYS = CHECKS.allowed()
 

@@ -12,7 +12,7 @@ import sys
 
 from .keys import SECTIONS, Section
 
-__all__ = ["markdown_table", "update_docs", "main"]
+__all__ = ["main", "markdown_table", "update_docs"]
 
 
 def markdown_table(section: Section) -> str:

@@ -26,7 +26,7 @@ from typing import Any
 from ..checking import Checker, Interval, Options, join, tname
 from ..workspace import MAX_POINTS
 
-__all__ = ["REQUIRED", "Key", "Section", "TOP", "WORKSPACE", "OPTIMIZER", "CHECKS", "SECTIONS", "spec_class"]
+__all__ = ["CHECKS", "OPTIMIZER", "REQUIRED", "SECTIONS", "TOP", "WORKSPACE", "Key", "Section", "spec_class"]
 
 
 class _Required:

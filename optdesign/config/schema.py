@@ -9,7 +9,7 @@ from .checks import ChecksSpec
 from .keys import OPTIMIZER, spec_class
 from .reader import UNITS, ConfigError
 
-__all__ = ["DesignVariable", "IndexSpec", "OptimizerSpec", "Config", "WorkspaceSpec"]
+__all__ = ["Config", "DesignVariable", "IndexSpec", "OptimizerSpec", "WorkspaceSpec"]
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from .keys import OPTIMIZER, WORKSPACE
 from .reader import UNITS, Reader, join, show, suggest, tname
 from .schema import OptimizerSpec
 
-__all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "REMOVED_OPT_KEYS", "SAMPLING"]
+__all__ = ["OPT_KEYS", "REMOVED_OPT_KEYS", "SAMPLING", "WS_KEYS", "optimizer_section", "workspace_section"]
 
 WS_KEYS = WORKSPACE.allowed()
 SAMPLING = set(WORKSPACE["sampling"].check.values)
