@@ -15,7 +15,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "optdesign"
 
 #: the modules every layer may use: plain helpers that import no other part of the package
-BOTTOM = {"optdesign.linalg", "optdesign.intervals", "optdesign.io", "optdesign.datafile", "optdesign.names", "optdesign.fast", "optdesign.fast._jit", "optdesign.tables",
+BOTTOM = {"optdesign.checking", "optdesign.linalg", "optdesign.intervals", "optdesign.io", "optdesign.datafile", "optdesign.names", "optdesign.fast", "optdesign.fast._jit", "optdesign.tables",
           "optdesign.symbolic", "optdesign.screws"}
 
 
