@@ -63,7 +63,7 @@ def summary(path: Path, width: int = 100) -> str:
 
 def resolve(name: str, found: dict[str, Path]) -> Path:
     """The script of ``name`` (with or without its ``bench_`` prefix); a UsageError if none."""
-    from ..config.reader import shorten, suggest
+    from ..checking import shorten, suggest
     from ._common import UsageError
 
     for key in (name, f"bench_{name}", name[:-3] if name.endswith(".py") else None):
