@@ -14,7 +14,8 @@ from conftest import edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import Interrupted
-from optdesign.optimize.runner import resume_run, start_run
+from optdesign.runner import resume_run, start_run
+from optdesign.studies.p4s_paper import table3_note
 from optdesign.runs import FORMAT_VERSION, RunFolder, RunFolderError
 
 DATA = Path(__file__).parent / "data"
@@ -24,7 +25,7 @@ SMALL = DATA / "p4s_small.yaml"
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs")
-    res = start_run(load_config(SMALL), seed=7, out=out)
+    res = start_run(load_config(SMALL), seed=7, out=out, reference_note=table3_note)   # as `optdesign run` gives it
     return res
 
 
@@ -275,8 +276,8 @@ def test_an_old_folder_with_the_removed_optimizer_keys_resumes_and_reports(tmp_p
     """optimizer.normalization and optimizer.min_transmission had no effect and
     were removed: a new config holding them is refused with one line, but the
     config.yaml of an earlier run folder holding them still resumes and reports."""
-    from optdesign.optimize.runner import config_of_folder
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.folders import config_of_folder
+    from optdesign.report.html.rundata import load_run
 
     tiny = DATA / "p4s_tiny.yaml"
     old = tiny.read_text().replace("optimizer: {", "optimizer: {normalization: sense, min_transmission: 0.2, ")

@@ -7,8 +7,8 @@ import io
 
 import numpy as np
 
-from .config import Config
-from .units import index_label, label
+from ..config import Config
+from ..units import index_label, label
 
 __all__ = ["atlas_png"]
 
