@@ -14,7 +14,7 @@ __all__ = ["atlas_png"]
 
 
 def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
-    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.atlas.AtlasMap`)."""
+    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.report.atlas.AtlasMap`)."""
     import matplotlib
 
     matplotlib.use("Agg")
