@@ -1,6 +1,7 @@
 """Run folders: contents, resume equals uninterrupted, signals, corrupted folders."""
 from __future__ import annotations
 
+import functools
 import json
 import signal
 import subprocess
@@ -14,18 +15,22 @@ from conftest import edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import Interrupted
-from optdesign.runner import resume_run, start_run
-from optdesign.studies.p4s_paper import table3_note
+from optdesign.runner import resume_run as _resume_run
+from optdesign.runner import start_run as _start_run
 from optdesign.runs import FORMAT_VERSION, RunFolder, RunFolderError
+from optdesign.studies.p4s_paper import table3_note
 
 DATA = Path(__file__).parent / "data"
 SMALL = DATA / "p4s_small.yaml"
+#: runs as `optdesign run` starts and resumes them: with the paper study's note on the reference
+start_run = functools.partial(_start_run, reference_note=table3_note)
+resume_run = functools.partial(_resume_run, reference_note=table3_note)
 
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs")
-    res = start_run(load_config(SMALL), seed=7, out=out, reference_note=table3_note)   # as `optdesign run` gives it
+    res = start_run(load_config(SMALL), seed=7, out=out)
     return res
 
 

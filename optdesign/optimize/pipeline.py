@@ -310,7 +310,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
 
         pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.tracking)
         progress.poll = pool.poll_progress
-        report_warm = False
+        report_warm = outputs.write_report is None   # matplotlib is loaded for the plots only
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:
                 i, st = nxt
