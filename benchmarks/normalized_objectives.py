@@ -86,7 +86,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="folder of the run folders (default: a temporary one)")
     ap.add_argument("--from-runs", default=None, metavar="DIR", help="only read the run folders in DIR")
     args = ap.parse_args(argv)
-    from optdesign.batch import collect_folders, plan, run_batch
+    from optdesign.batch import plan, run_batch
+    from optdesign.report.summary import collect_folders
     from optdesign.tables import fmt_g, table
 
     if args.from_runs:

@@ -1,9 +1,24 @@
 """The import rules of the flow, checked from the source (ast), so they stay true.
 
 Data goes one way: config -> mechanisms -> workspace -> indices -> evaluate ->
-optimize -> runs -> CLI.  A mechanism knows geometry and physics, not the
-optimizer; an index knows matrices, not YAML; the optimizer knows design
-vectors and objective values, not mechanisms; nothing imports the CLI.
+optimize -> runner -> commands (CLI), with the reports beside the run:
+
+    optimize   the problem and its runs: design vectors and objective values;
+               writes results.json, the stages' CSV files and checkpoints into
+               a run folder (optdesign.runs, a plain helper at the bottom)
+    report     md, csv, png, html, the batch summary and the atlases: reads
+               the run folder's plain data (results.json, CSV, config.yaml);
+               above evaluate and units, never importing optimize or studies
+    runner     start and resume a run with its reports: hands report's writers
+               to optimize's pipeline as plain callables (optimize.outputs)
+    batch      many runs through the runner, their rows through report.summary
+    studies    the paper studies; imported by the commands only (and by tests,
+               benchmarks and docs), which hand a study's note to the run
+    commands   the CLI on top
+
+A mechanism knows geometry and physics, not the optimizer; an index knows
+matrices, not YAML; the optimizer knows design vectors and objective values,
+not mechanisms, reports or studies; nothing imports the CLI.
 """
 from __future__ import annotations
 
@@ -119,14 +134,22 @@ def test_nothing_imports_the_cli():
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
     ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
                              "optdesign.indices", "optdesign.worstcase", "optdesign.local_derivatives")),
-    # the optimizer knows design vectors and objective values; the run folder is where it writes
     # units of what a user sees: from the config and the mechanism's declarations, through evaluate
     ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
     # certificates: a design's mechanism (its enclosure) over the workspace's region
     ("optdesign.certify", ("optdesign.mechanisms", "optdesign.workspace")),
+    # the optimizer knows design vectors and objective values; the run folder is where it writes
     ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
-                            "optdesign.certify", "optdesign.runs", "optdesign.report_html", "optdesign.studies", "optdesign.units")),
+                            "optdesign.certify", "optdesign.runs", "optdesign.units")),
     ("optdesign.runs", ()),
+    # the reports read a run folder's plain data (and evaluate designs for the atlases and the pictures)
+    ("optdesign.report", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
+                          "optdesign.units")),
+    # a run with its reports: the optimizer's pipeline with the report's writers handed down
+    ("optdesign.runner", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runs")),
+    # many runs through the runner, their rows through the report's batch summary
+    ("optdesign.batch", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runner",
+                         "optdesign.runs")),
     # paper studies sit beside the optimizer: they evaluate designs of a config
     ("optdesign.studies", ("optdesign.mechanisms", "optdesign.indices", "optdesign.config", "optdesign.evaluate",
                            "optdesign.workspace")),
@@ -147,6 +170,32 @@ def test_optimize_does_not_import_mechanisms():
     for name, path in MODULES:
         if _under(name, "optdesign.optimize"):
             assert not any(_under(i, "optdesign.mechanisms") for i in _imports(path)), name
+
+
+@pytest.mark.parametrize("other", ["optdesign.report", "optdesign.studies", "optdesign.runner", "optdesign.batch"])
+def test_optimize_knows_vectors_only(other):
+    """No report, no study, nothing that runs it: the layers above hand it plain callables."""
+    bad = [name for name, path in MODULES
+           if _under(name, "optdesign.optimize") and any(_under(i, other) for i in _imports(path))]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("other", ["optdesign.optimize", "optdesign.studies", "optdesign.runner", "optdesign.batch"])
+def test_the_reports_read_plain_data(other):
+    """The reports read results.json and the CSV files, not the optimizer's types."""
+    bad = [name for name, path in MODULES
+           if _under(name, "optdesign.report") and any(_under(i, other) for i in _imports(path))]
+    assert not bad, bad
+
+
+def test_studies_are_imported_by_the_commands_only():
+    """A paper study is named by the command that runs it (tests, benchmarks and docs may use it too)."""
+    bad = [f"{name} imports {i}" for name, path in MODULES
+           if not _under(name, "optdesign.commands") and not _under(name, "optdesign.studies")
+           for i in _imports(path) if _under(i, "optdesign.studies")]
+    assert not bad, bad
+    # the rule sees the command that does
+    assert any(_under(i, "optdesign.studies") for i in _imports(PKG / "commands" / "run.py"))
 
 
 def test_a_mechanisms_own_code_is_not_named_outside_it():

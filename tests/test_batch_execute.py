@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from optdesign.batch.execute import BackendError, _check_shared_folder, connect_dask, run_batch, run_task
-from optdesign.batch.summary import summary_tables
+from optdesign.report.summary import summary_tables
 from optdesign.batch.tasks import plan
 from optdesign.cli import main
 from optdesign.config import parse_config

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from optdesign.batch.schema import load_batch_file
-from optdesign.batch.summary import collect_folders, group_stats, row_from_folder
+from optdesign.report.summary import collect_folders, group_stats, row_from_folder
 from optdesign.batch.tasks import plan
 from optdesign.cli import main
 from optdesign.config import ConfigError, parse_config

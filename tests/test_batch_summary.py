@@ -1,4 +1,4 @@
-"""optdesign.batch.summary: the rows read back from run folders, the
+"""optdesign.report.summary: the rows read back from run folders, the
 statistics across seeds against the CSV a user reads, and the summarize
 command's errors."""
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from optdesign.batch.summary import collect_folders, group_stats, row_from_folder
+from optdesign.report.summary import collect_folders, group_stats, row_from_folder
 from optdesign.batch.tasks import plan
 from optdesign.cli import main
 from optdesign.config import parse_config
@@ -87,7 +87,7 @@ def test_seeds_are_ranked_on_the_extremes_pooled_over_the_design_space(tmp_path,
     over the four, every objective is re-expressed on them, and the seeds are
     ranked on that scale; a seed whose own extremes are narrowed so that it
     scores 0 on its own scale is not made the best by it."""
-    from optdesign.batch.summary import pooled_rows
+    from optdesign.report.summary import pooled_rows
 
     poor = _space_config("poor", "{population: 4, generations: 1, prescan: 0, polish: 0, seed: 1}")
     good = _space_config("good", "{population: 8, generations: 3, seed: 1}")

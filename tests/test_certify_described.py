@@ -165,7 +165,7 @@ def test_a_run_certifies_every_reported_design(tmp_path):
     401 x 401 grid of W by the hand-written model, refuted ones break the
     limit at their witness; results.md and report.html show the statuses."""
     from optdesign.mechanisms import get
-    from optdesign.optimize.runner import start_run
+    from optdesign.runner import start_run
 
     cfg = load_config(DATA / "p4s_tiny.yaml")
     res = start_run(cfg, seed=2, out=tmp_path)

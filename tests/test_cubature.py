@@ -171,7 +171,8 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     extremes, each with the grid's mean and error beside the integral; a
     singular extreme is unbounded (null mean) and results.md says so."""
     from optdesign.evaluate import workspace_of
-    from optdesign.optimize.integrals import integral_lines, integrals_of_reported
+    from optdesign.optimize.integrals import integrals_of_reported
+    from optdesign.report.integrals import integral_lines
 
     cfg = paper_config
     after, sing = cfg.design("after"), {**cfg.design("after"), **SINGULAR}

@@ -92,7 +92,7 @@ def test_report_holds_the_mechanism_in_3d_with_a_slider_and_copy_buttons(tmp_pat
     import shutil
     from pathlib import Path
 
-    from optdesign.report_html.report import write_report_html
+    from optdesign.report.html.report import write_report_html
 
     src = Path(__file__).resolve().parents[1] / "runs" / "p4s_paper-reproduction"
     dst = tmp_path / "run"
@@ -137,7 +137,7 @@ def _check_report_mechanism(text, run_dir):
     """The optimum's drawing in report.html: 3 actuated links (rail start to
     slider, of length |q_i|, the inverse kinematics' stroke at the first pose,
     the centre of W) and 6 rods of length L, one frame and one slider step per pose."""
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.html.rundata import load_run
 
     figs = [(d, lay) for d, lay in _figures(text) if any(str(t.get("name", "")).startswith("legs: ") for t in d)]
     assert figs, "no drawing of the mechanism"
@@ -165,8 +165,8 @@ def _check_report_mechanism(text, run_dir):
 def test_a_high_dimensional_workspace_is_sampled_within_bounds():
     from pathlib import Path
 
-    from optdesign.report_html.rundata import RunData
-    from optdesign.report_html.views import MAX_SAMPLE, _sample, _surface_grid
+    from optdesign.report.html.rundata import RunData
+    from optdesign.report.html.views import MAX_SAMPLE, _sample, _surface_grid
 
     cfg = load_config("configs/gough_stewart.yaml")
     run = RunData(Path("."), {}, {"optimum": cfg.design("reference")}, cfg)
@@ -182,8 +182,8 @@ def test_a_two_dimensional_workspace_is_a_surface_of_the_local_index():
     from pathlib import Path
 
     from optdesign.evaluate import workspace_of, evaluate
-    from optdesign.report_html.rundata import RunData
-    from optdesign.report_html.views import workspace_figure
+    from optdesign.report.html.rundata import RunData
+    from optdesign.report.html.views import workspace_figure
 
     cfg = load_config("tests/data/p4s_tiny.yaml")
     d = cfg.design(next(iter(cfg.designs)))
@@ -212,8 +212,8 @@ def test_a_copied_designs_snippet_is_the_front_design_in_a_config(tmp_path):
 
     import yaml
 
-    from optdesign.report_html.rundata import load_run
-    from optdesign.report_html.report import write_report_html
+    from optdesign.report.html.rundata import load_run
+    from optdesign.report.html.report import write_report_html
 
     src = Path(__file__).resolve().parents[1] / "runs" / "p4s_paper-reproduction"
     dst = tmp_path / "run"

@@ -32,7 +32,7 @@ def test_the_optimality_measure_survives_impossible_geometry_next_to_the_design(
     from optdesign.evaluate import Evaluator
     from optdesign.optimize.polish import optimality
     from optdesign.optimize.problem import DesignProblem, index_term
-    from optdesign.optimize.report import optimality_lines
+    from optdesign.report.md import optimality_lines
 
     ev = Evaluator.from_config(load_config(_legs_with_d_bounds(tmp_path)))
     X = np.array([ev.vector({"r_a": 0.25, "r_b": 0.71, "d": d, "phi": np.radians(35)}) for d in (0.3, 0.55)])
@@ -143,7 +143,7 @@ def test_report_says_what_is_missing(tmp_path, case):
 def test_report_ignores_stage_files_the_manifest_does_not_record(tmp_path):
     """A planted stage folder (not in the manifest) is never read: the run's own
     files are enough, and the page does not name the stray stage."""
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.html.rundata import load_run
 
     run = _copy_run(tmp_path)
     (run / "stages" / "planted").mkdir()
@@ -194,7 +194,7 @@ def test_a_second_resume_of_a_locked_folder_is_refused_naming_the_holder(tmp_pat
 def test_run_holds_the_lock_for_its_whole_life(tmp_path, monkeypatch):
     """While the pipeline of a new run goes on, its folder is locked."""
     from optdesign.config import load_config
-    from optdesign.optimize import runner
+    from optdesign import runner
     from optdesign.runs import RunFolder, RunFolderError
 
     seen = []
@@ -213,7 +213,7 @@ def test_run_holds_the_lock_for_its_whole_life(tmp_path, monkeypatch):
 
 
 def test_a_batch_summary_never_reads_results_through_a_link(tmp_path):
-    from optdesign.batch.summary import row_from_folder
+    from optdesign.report.summary import row_from_folder
     from optdesign.runs import RunFolderError
 
     run = _copy_run(tmp_path)

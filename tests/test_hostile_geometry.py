@@ -234,7 +234,7 @@ def test_no_nan_reaches_the_optimum(tmp_path):
     """A small optimization over bounds full of unreachable and singular
     designs (rails from 1 to 89 deg, base radius from 0.2 to 1.2 m): the
     optimum is a feasible design with finite indices."""
-    from optdesign.optimize.runner import start_run
+    from optdesign.runner import start_run
 
     text = """\
 mechanism: p4s

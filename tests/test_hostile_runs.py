@@ -28,7 +28,7 @@ from conftest import CONFIGS, DATA
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from optdesign.config import load_config
-from optdesign.optimize.runner import start_run
+from optdesign.runner import start_run
 from optdesign.optimize.workers import Interrupted
 from optdesign.runs import _binding
 

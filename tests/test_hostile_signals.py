@@ -121,7 +121,7 @@ sys.meta_path.insert(0, _SignalAtImport())
 '''
 
 
-@pytest.mark.parametrize("module", ["numpy", "optdesign.commands.run", "optdesign.optimize.runner", "pymoo"],
+@pytest.mark.parametrize("module", ["numpy", "optdesign.commands.run", "optdesign.runner", "pymoo"],
                          ids=["heavy imports", "parser", "the command's imports", "the optimizer's imports"])
 @pytest.mark.parametrize("entry", ["optdesign", "optdesign.cli"])
 def test_sigterm_while_starting_gives_143_and_one_line(tmp_path, module, entry):

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from optdesign.config import load_config
-from optdesign.optimize.runner import resume_run, start_run
+from optdesign.runner import resume_run, start_run
 from optdesign.runs import RunFolder
 
 TINY = """\

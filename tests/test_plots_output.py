@@ -21,7 +21,7 @@ def _hist(best, mean):
 def test_convergence_is_on_a_log_axis_not_flat_at_zero():
     import matplotlib.pyplot as plt
 
-    from optdesign.optimize.report_plots import convergence_figure
+    from optdesign.report.png import convergence_figure
 
     best = [0.3 * 10.0 ** -k for k in range(8)]          # falls by decades: flat at 0 on a linear axis
     fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [3 * b for b in best]))
@@ -38,7 +38,7 @@ def test_convergence_is_on_a_log_axis_not_flat_at_zero():
 def test_convergence_with_round_off_zeros_is_symlog_and_says_so():
     import matplotlib.pyplot as plt
 
-    from optdesign.optimize.report_plots import convergence_figure
+    from optdesign.report.png import convergence_figure
 
     best = [0.2, 1e-3, 1e-5, 3e-17, 0.0]
     fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [0.5, 0.1, 1e-2, 1e-4, 1e-6]))
@@ -56,8 +56,8 @@ def test_pareto_markers_are_not_cut_at_the_frame():
     import matplotlib.pyplot as plt
     from matplotlib.collections import PathCollection
 
-    from optdesign.optimize.report_plots import pareto_figure
-    from optdesign.optimize.runner import config_of_folder
+    from optdesign.report.png import pareto_figure
+    from optdesign.report.folders import config_of_folder
 
     cfg = config_of_folder(REPRO)
     results = json.loads((REPRO / "results.json").read_text())
@@ -76,9 +76,9 @@ def test_summary_labels_each_mechanisms_stiffness_with_its_own_unit(tmp_path):
     """A summary over runs of several mechanisms: the 3-P(4S)'s stiffness is
     N/m (translations), the 3-SPS-S's N m/rad (rotations); one label for both
     taken from the first run was wrong for the other."""
-    from optdesign.batch.summary import _quantity_labels
+    from optdesign.report.summary import _quantity_labels
     from optdesign.config import load_config
-    from optdesign.optimize.runner import config_text
+    from optdesign.runner import config_text
     from optdesign.runs import RunFolder, run_key
 
     rows = []
@@ -95,8 +95,8 @@ def test_summary_labels_each_mechanisms_stiffness_with_its_own_unit(tmp_path):
 # ---------------------------------------------------------------- compare.html and the plotly toolbar
 @pytest.fixture(scope="module")
 def two_runs():
-    from optdesign.report_html.compare import _labels
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.html.compare import _labels
+    from optdesign.report.html.rundata import load_run
 
     r = load_run(REPRO)
     r.path = r.path.with_name("a-long-run-name-s12345-20261203-084403-160c")   # names as long as real ones
@@ -104,7 +104,7 @@ def two_runs():
 
 
 def test_compare_legends_one_entry_per_line_below_the_plot(two_runs):
-    from optdesign.report_html.compare import LEGEND_ROW, _convergence_figure, _fronts_figure
+    from optdesign.report.html.compare import LEGEND_ROW, _convergence_figure, _fronts_figure
 
     runs, labels = two_runs
     fronts, _ = _fronts_figure(runs, labels)
@@ -120,8 +120,8 @@ def test_compare_legends_one_entry_per_line_below_the_plot(two_runs):
 
 
 def test_figure_titles_sit_below_the_plotly_toolbar(two_runs):
-    from optdesign.report_html.compare import _fronts_figure
-    from optdesign.report_html.page import MODEBAR_PX, Page
+    from optdesign.report.html.compare import _fronts_figure
+    from optdesign.report.html.page import MODEBAR_PX, Page
 
     fig, _ = _fronts_figure(*two_runs)
     top, height = fig.layout.margin.t, fig.layout.height
@@ -138,7 +138,7 @@ def test_convergence_with_positive_round_off_is_symlog_so_the_best_line_is_drawn
     a log axis would leave the best line's zeros undrawn; symlog draws them."""
     import matplotlib.pyplot as plt
 
-    from optdesign.optimize.report_plots import convergence_figure
+    from optdesign.report.png import convergence_figure
 
     best = [0.2, 1e-3, 5.4e-18, 5.4e-18]
     fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [0.5, 0.1, 1e-2, 1e-4]))

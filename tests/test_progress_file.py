@@ -91,7 +91,7 @@ def watched(tmp_path_factory):
     """A tiny run stopped inside its stages, with every progress.json it wrote (interval 0)."""
     from optdesign.config import load_config
     from optdesign.optimize import watch
-    from optdesign.optimize.runner import start_run
+    from optdesign.runner import start_run
     from optdesign.optimize.workers import Interrupted
 
     tmp = tmp_path_factory.mktemp("watched")

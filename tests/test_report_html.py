@@ -1,4 +1,4 @@
-"""The interactive HTML report (optdesign.report_html, `optdesign report`,
+"""The interactive HTML report (optdesign.report.html, `optdesign report`,
 `optdesign compare`): what the page says, that it needs no network, that the
 atlas follows the workspace's true shape, and that it renders in a real
 browser (headless Chromium)."""
@@ -28,7 +28,7 @@ def noref_run(tmp_path_factory):
     """A small finished run of a config without `reference:` (with an extra
     objective, so that its fronts have a real trade-off)."""
     from optdesign.config import load_config
-    from optdesign.optimize.runner import start_run
+    from optdesign.runner import start_run
 
     d = yaml.safe_load((DATA / "p4s_tradeoff_small.yaml").read_text())
     d.pop("reference")
@@ -45,7 +45,7 @@ def noref_run(tmp_path_factory):
 def two_objective_run(tmp_path_factory):
     """A small finished run with two indices (its fronts are two-objective)."""
     from optdesign.config import load_config
-    from optdesign.optimize.runner import start_run
+    from optdesign.runner import start_run
 
     d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
     d.pop("reference")
@@ -61,7 +61,7 @@ def two_objective_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def noref_report(noref_run):
-    from optdesign.report_html import write_report_html
+    from optdesign.report.html import write_report_html
 
     return write_report_html(noref_run)
 
@@ -149,7 +149,7 @@ def test_no_paper_wording_without_reference(noref_report):
 
 
 def test_reference_columns_only_with_reference(repro_copy):
-    from optdesign.report_html import write_report_html
+    from optdesign.report.html import write_report_html
 
     text = _visible_text(write_report_html(repro_copy).read_text())
     assert "before (reference)" in text and "rel. diff" in text
@@ -164,7 +164,7 @@ def test_units_in_labels_and_degrees(noref_run, noref_report):
         assert lab in text, lab
     res = json.loads((noref_run / "results.json").read_text())
     deg = np.degrees(res["optimum"]["phi"])
-    from optdesign.report_html.figures import fmt
+    from optdesign.report.html.figures import fmt
 
     assert f"<b>{fmt(deg)}</b>" in html  # the optimum's phi in the table, in degrees
     assert 25 <= deg <= 45
@@ -186,7 +186,7 @@ def test_units_in_labels_and_degrees(noref_run, noref_report):
 
 
 def test_maximized_index_shown_as_itself(noref_run, noref_report):
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.html.rundata import load_run
 
     run = load_run(noref_run)
     front = run.fronts["pareto_nsga2"]
@@ -207,7 +207,7 @@ def test_maximized_index_shown_as_itself(noref_run, noref_report):
 
 
 def test_one_point_front_is_drawn_and_titled(repro_copy):
-    from optdesign.report_html import write_report_html
+    from optdesign.report.html import write_report_html
 
     html = write_report_html(repro_copy).read_text()
     figs = _figures(html)
@@ -226,7 +226,7 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
     disc (a different sampling), while the bounding square's differs by 1-3 %."""
     from optdesign.config import parse_config
     from optdesign.evaluate import evaluate
-    from optdesign.report_html.atlas import atlas_map
+    from optdesign.report.html.atlas import atlas_map
 
     d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
     d["workspace"] = {"type": "cylinder", "radius": 0.04, "axes": {"z": 0.57}, "sampling": "sobol", "points": 8192,
@@ -252,7 +252,7 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
 
 def test_atlas_of_a_3d_workspace_is_a_named_centre_slice():
     from optdesign.config import load_config
-    from optdesign.report_html.atlas import atlas_map
+    from optdesign.report.html.atlas import atlas_map
 
     cfg = load_config(ROOT / "configs" / "sps_s_opt.yaml")
     m = atlas_map(cfg, cfg.initial_design(), 31)
@@ -302,7 +302,7 @@ def test_damaged_run_folder_is_one_line(noref_run, tmp_path, damage):
 
 
 def test_report_never_writes_through_a_symlink(noref_run, tmp_path):
-    from optdesign.report_html import write_report_html
+    from optdesign.report.html import write_report_html
 
     folder = tmp_path / "run"
     shutil.copytree(noref_run, folder)
@@ -356,7 +356,7 @@ def test_report_renders_in_headless_chromium(which, request, tmp_path):
     if CHROMIUM is None:
         pytest.skip("chromium not found: the browser test of report.html needs it; install it with "
                     "`apt-get install -y chromium` (Debian; .ci/run does this)")
-    from optdesign.report_html import write_report_html
+    from optdesign.report.html import write_report_html
 
     if which == "four objectives":
         noref_report = request.getfixturevalue("noref_report")

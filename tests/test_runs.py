@@ -1,6 +1,7 @@
 """Run folders: contents, resume equals uninterrupted, signals, corrupted folders."""
 from __future__ import annotations
 
+import functools
 import json
 import signal
 import subprocess
@@ -14,11 +15,16 @@ from conftest import edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import Interrupted
-from optdesign.optimize.runner import resume_run, start_run
+from optdesign.runner import resume_run as _resume_run
+from optdesign.runner import start_run as _start_run
 from optdesign.runs import FORMAT_VERSION, RunFolder, RunFolderError
+from optdesign.studies.p4s_paper import table3_note
 
 DATA = Path(__file__).parent / "data"
 SMALL = DATA / "p4s_small.yaml"
+#: runs as `optdesign run` starts and resumes them: with the paper study's note on the reference
+start_run = functools.partial(_start_run, reference_note=table3_note)
+resume_run = functools.partial(_resume_run, reference_note=table3_note)
 
 
 @pytest.fixture(scope="module")
@@ -275,8 +281,8 @@ def test_an_old_folder_with_the_removed_optimizer_keys_resumes_and_reports(tmp_p
     """optimizer.normalization and optimizer.min_transmission had no effect and
     were removed: a new config holding them is refused with one line, but the
     config.yaml of an earlier run folder holding them still resumes and reports."""
-    from optdesign.optimize.runner import config_of_folder
-    from optdesign.report_html.rundata import load_run
+    from optdesign.report.folders import config_of_folder
+    from optdesign.report.html.rundata import load_run
 
     tiny = DATA / "p4s_tiny.yaml"
     old = tiny.read_text().replace("optimizer: {", "optimizer: {normalization: sense, min_transmission: 0.2, ")
@@ -294,3 +300,33 @@ def test_an_old_folder_with_the_removed_optimizer_keys_resumes_and_reports(tmp_p
     res = resume_run(folder)
     assert res.results["status"] == "complete"
     assert set(load_run(folder).results["global_indices"]) == {"dynamic", "stiffness"}
+
+
+@pytest.mark.slow
+def test_the_pipeline_writes_the_reports_it_is_handed(tmp_path):
+    """The optimizer knows no report and no study: without outputs a run writes
+    the optimizer's files only; with them, the note it is handed lands in
+    results.json, the report is written before the manifest says complete and
+    the page after; the numbers are the same either way."""
+    from optdesign.optimize.outputs import RunOutputs
+    from optdesign.optimize.pipeline import run_pipeline
+    from optdesign.runner import config_text, run_outputs
+
+    cfg = load_config(DATA / "p4s_tiny.yaml")
+    text = config_text(cfg)
+    bare = run_pipeline(cfg, RunFolder.create(tmp_path, "bare", text, 7, "k"), 7, pareto=False)
+    assert (bare.folder.path / "results.json").is_file()
+    assert not [n for n in ("results.md", "optimum.yaml", "report.html", "convergence.png", "history.csv")
+                if (bare.folder.path / n).exists()]
+    assert "reference_note" not in bare.results
+    seen = []
+    outputs = RunOutputs(reference_note=lambda c: f"a note on {c.name}",
+                         write_report=lambda c, f, r, s: seen.append(("report", f.read_manifest()["status"])),
+                         write_html=lambda f: seen.append(("html", f.read_manifest()["status"])))
+    handed = run_pipeline(cfg, RunFolder.create(tmp_path, "handed", text, 7, "k"), 7, pareto=False, outputs=outputs)
+    assert handed.results.pop("reference_note") == f"a note on {cfg.name}"
+    assert seen == [("report", "running"), ("html", "complete")]
+    assert _strip(handed.results) == _strip(bare.results)
+    full = run_pipeline(cfg, RunFolder.create(tmp_path, "full", text, 7, "k"), 7, pareto=False, outputs=run_outputs())
+    assert all((full.folder.path / n).is_file() for n in ("results.md", "optimum.yaml", "report.html", "history.csv"))
+    assert _strip(full.results) == _strip(bare.results)

@@ -214,7 +214,7 @@ def test_constraint_eq6_and_the_rotation_about_z(mech):
 def test_configs_evaluate_and_atlas(tmp_path):
     from conftest import CONFIGS
 
-    from optdesign.atlas import write_atlas
+    from optdesign.report.atlas import write_atlas
     from optdesign.config import load_config
     from optdesign.evaluate import evaluate_named
 

@@ -27,7 +27,7 @@ from conftest import DATA, edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import _stage_in_worker, execute_stage, stage_plan
-from optdesign.optimize.runner import start_run
+from optdesign.runner import start_run
 from optdesign.optimize.workers import Interrupted, StagePool, StopRequest
 from optdesign.runs import RunFolder
 from optdesign.workspace import sample

@@ -27,9 +27,9 @@ from typing import Sequence
 from ..config import ConfigError, parse_config
 from ..names import OutsideRoot, check_inside
 from ..runs import RunFolder, RunFolderError
-from .schema import sweep_label
-from .summary import row_from_folder
-from .tasks import Task, config_key
+from ..report.folders import config_key, sweep_label
+from ..report.summary import row_from_folder
+from .tasks import Task
 
 __all__ = ["BackendError", "BatchInterrupted", "stop_on_signals", "run_task", "run_batch", "connect_dask",
            "check_shared_folder"]
@@ -102,14 +102,15 @@ def _kill_local_workers() -> None:
         ex.shutdown(wait=True, kill_workers=True)
 
 
-def run_task(task: Task, out: str, quiet: bool = True) -> dict:
+def run_task(task: Task, out: str, quiet: bool = True, reference_note=None) -> dict:
     """Run (or skip, or resume) one task; returns its summary row.
 
     A run that fails (for example no feasible design) or a folder that cannot
     be used gives a row with status ``failed`` and the error, so the rest of
-    the batch goes on.
+    the batch goes on.  ``reference_note``: see :func:`optdesign.runner.run_outputs`.
     """
     from ..optimize.pipeline import Progress, run_pipeline
+    from ..runner import run_outputs
 
     folder = RunFolder(Path(out) / task.folder_name)
     state = "new"
@@ -132,7 +133,8 @@ def run_task(task: Task, out: str, quiet: bool = True) -> dict:
             except FileExistsError:  # another worker created it meanwhile: resume it
                 state = "resumed"
         with folder.lock():     # another worker running this folder: this task fails, naming it
-            run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto)
+            run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto,
+                         outputs=run_outputs(reference_note))
     except (RunFolderError, ConfigError, RuntimeError, ValueError, ArithmeticError, OSError) as exc:
         try:
             row = row_from_folder(folder.path)
@@ -268,7 +270,7 @@ _check_shared_folder = check_shared_folder   # the name the tests have used
 
 def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, backend: str = "local",
               scheduler: str | None = None, on_result=None, retries: int = 2, timeout: float = 10.0,
-              client=None) -> list[dict]:
+              client=None, reference_note=None) -> list[dict]:
     """Run tasks through joblib and return their rows (sorted by config and seed).
 
     ``local``: joblib's process pool (loky) with ``jobs`` workers.  If a
@@ -278,7 +280,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
     (or the given ``client``); every worker thread takes runs (``jobs`` is
     not used: the cluster's size decides), each run is one Dask task, and a task lost with its worker is
     rescheduled by Dask on another worker (``retries`` more times if the task
-    itself raises).
+    itself raises).  ``reference_note``: see :func:`optdesign.runner.run_outputs`.
     """
     from joblib import Parallel, delayed, parallel_config
 
@@ -303,7 +305,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
             try:
                 with parallel_config(backend="loky", n_jobs=jobs or 2):
                     collect(Parallel(return_as="generator_unordered", batch_size=1)(
-                        delayed(run_task)(t, out_abs) for t in todo))
+                        delayed(run_task)(t, out_abs, reference_note=reference_note) for t in todo))
                 break
             except KeyboardInterrupt as exc:   # a signal (BatchInterrupted) or Ctrl-C: no worker outlives us
                 # SIGINT to the group also reaches the workers, and a worker's KeyboardInterrupt
@@ -335,7 +337,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
             with parallel_config(backend="dask", client=client, retries=retries, n_jobs=-1,
                                  wait_for_workers_timeout=timeout):
                 collect(Parallel(return_as="generator_unordered", batch_size=1, pre_dispatch="all")(
-                    delayed(run_task)(t, out_abs) for t in tasks))
+                    delayed(run_task)(t, out_abs, reference_note=reference_note) for t in tasks))
         finally:
             if own:
                 client.close()

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 import itertools
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -20,8 +19,9 @@ from typing import Any
 from ..config import ConfigError, load_config, parse_config, yamlsafe
 from ..config.reader import plain, shorten, suggest
 from ..names import name_problem
+from ..report.folders import sweep_label
 
-__all__ = ["BatchFile", "is_batch_file", "load_batch_file", "sweep_label"]
+__all__ = ["BatchFile", "is_batch_file", "load_batch_file"]
 
 _BATCH_KEYS = {"base", "name", "seeds", "mode", "sweep", "set", "pareto"}
 #: sections of a config a sweep (or ``set``) may change
@@ -90,22 +90,6 @@ def _set_none(data: dict, parts: list[str]) -> None:
 def _apply(data: dict, dotted: str, value: Any, source: str, where: str, base_src: str) -> None:
     holder, key = _resolve_path(data, dotted, source, where, base_src)
     holder[key] = copy.deepcopy(value)
-
-
-def _label(dotted: str, value: Any) -> str:
-    """A short label for one swept value: ``m_platform=6``, ``x=-0.05..0.05``."""
-    last = dotted.split(".")[-1]
-    if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, (int, float)) for v in value):
-        return f"{last}={value[0]:g}..{value[1]:g}"
-    if isinstance(value, float):
-        return f"{last}={value:g}"
-    if isinstance(value, (dict, list)):
-        text = json.dumps(value, separators=(',', ':'))
-    else:
-        text = str(value)
-    if not text.isprintable():          # one line whatever the value (the label heads a YAML file)
-        text = text.encode("unicode_escape").decode("ascii")
-    return f"{last}={text[:80] + '...' if len(text) > 80 else text}"
 
 
 def load_batch_file(path: str | os.PathLike) -> BatchFile:
@@ -218,7 +202,7 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
             _fail(source, "name", f"the run names ({run_name[:20]}...) would have {len(run_name)} characters; "
                                   "expected a shorter name")
         d["name"] = run_name
-        label = ", ".join(_label(k, v) for k, v in zip(keys, combo))
+        label = sweep_label(dict(zip(keys, combo)))
         header = f"# resolved from base {Path(base).name}" + (f"; sweep: {label}" if label else "") + "\n"
         text = header + yamlsafe.dump(d, sort_keys=False, default_flow_style=None, allow_unicode=True)
         try:
@@ -232,8 +216,3 @@ def load_batch_file(path: str | os.PathLike) -> BatchFile:
             _fail(source, "set" if fixed and not label else "sweep", f"{what} gives {exc.path or 'config'}: {exc.message}")
         out.append((run_name, text, dict(zip(keys, combo))))
     return BatchFile(source, name, seeds, pareto, out)
-
-
-def sweep_label(sweep: dict | None) -> str:
-    """The swept values of one run as a label: ``m_platform=6, x=-0.05..0.05``."""
-    return ", ".join(_label(k, v) for k, v in (sweep or {}).items())

@@ -5,7 +5,6 @@ the run key), so running it needs no access to the files it came from.
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -13,7 +12,7 @@ from ..config import ConfigError, load_config, parse_config
 from ..runs import run_key
 from .schema import is_batch_file, load_batch_file
 
-__all__ = ["Task", "config_key", "plan", "MAX_RUNS"]
+__all__ = ["Task", "plan", "MAX_RUNS"]
 
 #: the most runs one batch may plan (configs x sweep combinations x seeds)
 MAX_RUNS = 100_000
@@ -35,11 +34,6 @@ class Task:
     @property
     def folder_name(self) -> str:
         return f"{self.name}-s{self.seed}-{self.key}"
-
-
-def config_key(config_text: str) -> str:
-    """A short hash of a resolved config's text (the same for every seed)."""
-    return hashlib.sha256(config_text.encode("utf-8")).hexdigest()[:12]
 
 
 def plan(config_paths: Sequence[str], n_seeds: int | None = None, seeds: Sequence[int] | None = None,

@@ -19,7 +19,7 @@ def register(sub):
 
 def run(args) -> int:
     from ._common import UsageError, check_out_root, design_names, make_out_root, open_config
-    from ..atlas import check_atlas_size, write_atlas
+    from ..report.atlas import check_atlas_size, write_atlas
     from ..names import OutsideRoot
 
     if args.resolution is not None and not 2 <= args.resolution <= 2000:

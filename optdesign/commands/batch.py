@@ -74,7 +74,9 @@ def _seed_list(text: str) -> list[int]:
 
 
 def _run(args) -> int:
-    from ..batch import BackendError, connect_dask, plan, run_batch, summarize
+    from ..batch import BackendError, connect_dask, plan, run_batch
+    from ..report.summary import summarize
+    from ..studies.p4s_paper import table3_note
     from ._common import UsageError, check_out_root, make_out_root
 
     if args.seeds is not None and not 1 <= args.seeds <= 100_000:
@@ -144,7 +146,8 @@ def _run(args) -> int:
 
         try:
             rows = run_batch(tasks, args.out, args.jobs, backend=args.backend, scheduler=args.scheduler,
-                             on_result=show, retries=args.retries, timeout=args.timeout, client=client)
+                             on_result=show, retries=args.retries, timeout=args.timeout, client=client,
+                             reference_note=table3_note)
         except BackendError as exc:
             raise UsageError(str(exc)) from None
         finally:
@@ -182,7 +185,7 @@ def _row_line(row: dict) -> str:
     try:
         from pathlib import Path
 
-        from ..optimize.runner import config_of_folder
+        from ..report.folders import config_of_folder
         from ..units import design_text
 
         cfg = config_of_folder(Path(row["folder"]))

@@ -19,7 +19,7 @@ def register(sub):
 
 def run(args) -> int:
     from ._common import UsageError, check_out_file
-    from ..report_html import write_compare_html
+    from ..report.html import write_compare_html
     from ..runs import RunFolderError
 
     check_out_file(args.out, "--out")

@@ -117,7 +117,7 @@ def run(args) -> int:
     from ..evaluate import build
     from ..io import atomic_write_text
     from ..mjcf_export import DEFAULT_FREQUENCY, export_mjcf, model_module
-    from ..report_html.rundata import load_run
+    from ..report.html.rundata import load_run
     from ..runs import RunFolderError
 
     f = DEFAULT_FREQUENCY if args.servo_frequency is None else args.servo_frequency

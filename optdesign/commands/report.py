@@ -18,8 +18,8 @@ def register(sub):
 
 def run(args) -> int:
     from ._common import UsageError
-    from ..report_html.atlas import DEFAULT_RESOLUTION
-    from ..report_html import write_report_html
+    from ..report.html.atlas import DEFAULT_RESOLUTION
+    from ..report.html import write_report_html
     from ..runs import RunFolderError
 
     n = DEFAULT_RESOLUTION if args.resolution is None else args.resolution

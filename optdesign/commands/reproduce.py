@@ -19,7 +19,7 @@ def register(sub):
 def run(args) -> int:
     from ._common import open_config
     from .run import execute
-    from ..optimize.report import index_table, parameter_table, reference_table
+    from ..report.md import index_table, parameter_table, reference_table
     from ..tables import print_text
 
     cfg = open_config(args.config)
@@ -38,7 +38,7 @@ def run(args) -> int:
             print("Beside the paper's values (the config's reference):")
             print_text(ref)
         if r.get("integrals"):
-            from ..optimize.integrals import integral_table
+            from ..report.integrals import integral_table
 
             keys = ["optimum"] + list(r.get("designs") or {})
             print()

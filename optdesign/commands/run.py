@@ -29,7 +29,7 @@ def register(sub):
 
 def run_json(res, cfg=None, wall: float | None = None) -> dict:
     """A finished run as JSON: what a script reads from it."""
-    from ..optimize.runner import config_of_folder
+    from ..report.folders import config_of_folder
     from ..units import index_unit, variable_unit
 
     cfg = cfg or config_of_folder(res.folder.path)
@@ -50,13 +50,33 @@ def run_json(res, cfg=None, wall: float | None = None) -> dict:
     return out
 
 
+def summary_line(res, cfg=None, wall: float | None = None) -> str:
+    """One line: the run folder, its status, f, the global indices and the
+    optimum (in the config's units with the unit named); ``wall``: the whole
+    run's wall time (default: the recorded one, which ends before the report)."""
+    from ..report.folders import config_of_folder
+    from ..units import design_text, index_text
+
+    r = res.results
+    if cfg is None:
+        cfg = config_of_folder(res.folder.path)
+    opt = design_text(cfg, r["optimum"]) or "no free variable"
+    idx = ", ".join(index_text(cfg, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
+    f = r["objective"]
+    f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
+    return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective f={f_txt} "
+            f"[{idx}] at {opt} ({r.get('evaluations', '?')} evaluations, "
+            f"{f'{wall:.1f}' if wall is not None else r.get('wall_time_s', '?')} s)")
+
+
 def execute(args, after=None, cfg=None) -> int:
     """Run or resume; SIGINT/SIGTERM stop the run at a generation boundary (exit
     130/143, the folder resumable).  A signal that arrives once the run is
     complete changes nothing: the exit status is 0, as the manifest says."""
     from ._common import UsageError, check_name_option, check_out_root, make_out_root, open_config
     from ..optimize.progress import Progress
-    from ..optimize.runner import resume_run, start_run, summary_line
+    from ..runner import resume_run, start_run
+    from ..studies.p4s_paper import table3_note
     from ..optimize.workers import Interrupted, StopRequest, default_jobs
     from ..runs import RunFolderError
 
@@ -82,10 +102,10 @@ def execute(args, after=None, cfg=None) -> int:
     try:
         try:
             if args.resume:
-                res = resume_run(args.resume, progress, jobs=jobs, stop=stop)
+                res = resume_run(args.resume, progress, jobs=jobs, stop=stop, reference_note=table3_note)
             else:
                 res = start_run(cfg, args.seed, args.out, args.name, progress, pareto=not args.no_pareto, jobs=jobs,
-                                stop=stop)
+                                stop=stop, reference_note=table3_note)
         except RunFolderError as exc:
             raise UsageError(str(exc)) from None
         except Interrupted as exc:

@@ -24,7 +24,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from ..batch import collect_folders, row_from_folder, summarize
+    from ..report.summary import collect_folders, row_from_folder, summarize
     from ._common import UsageError, check_out_root, make_out_root
     from ..runs import RunFolderError
 

@@ -39,7 +39,9 @@ def _named_observed(evaluator, cfg, names, ev) -> dict:
                     "named design")
 
 
-def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) -> dict:
+def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0, reference_note=None) -> dict:
+    """``reference_note(cfg) -> str | None``: a paragraph on the config's reference
+    (results.json's ``reference_note``), given by the caller that knows the study."""
     from ..evaluate import error_method, evaluate
 
     ws_res = stages["weighted_sum"]
@@ -116,9 +118,7 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0) 
         "workspace_points": int(ws.n),
     }
     results["polish"] = _polish_summary(ws_res, repolish)
-    from ..studies.p4s_paper import table3_note
-
-    note = table3_note(cfg)   # what the bounds decide and what is a fit (a referenced 3-P(4S) design on a corner)
+    note = reference_note(cfg) if reference_note is not None else None
     if note:
         results["reference_note"] = note
     if changes:

@@ -41,6 +41,7 @@ from .algorithms import seed_count
 from .describe import describe_result, describe_row
 from .final import final_results
 from .normalization import bounds_of, fold_extremes
+from .outputs import NO_OUTPUTS, RunOutputs
 from .extremes import run_extremes, scan_size
 from .prescan import best_designs, run_prescan
 from .refine import front_seeds
@@ -243,12 +244,14 @@ class PipelineResult:
 
 
 def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None, pareto: bool = True,
-                 stop_after: int | None = None, jobs: int = 1, stop: StopRequest | None = None) -> PipelineResult:
+                 stop_after: int | None = None, jobs: int = 1, stop: StopRequest | None = None,
+                 outputs: RunOutputs = NO_OUTPUTS) -> PipelineResult:
     """Run (or resume) every stage of the config's optimization in ``folder``.
     ``jobs``: processes running stages at once (the weighted sums wait for the
     single-index runs); ``stop``: the caller's signal state (else one is
     installed here); ``stop_after`` (tests only): interrupt after that many
-    generations, as a signal would (the stages then run one by one)."""
+    generations, as a signal would (the stages then run one by one);
+    ``outputs``: the reports and notes the layers above add (:mod:`.outputs`)."""
     progress, t0 = progress or Progress(False), time.perf_counter()
     notice = set_compile_notice(progress.compiling if progress.enabled else None)
     wall_before = float(folder.verify_inputs(seed)["wall_time_s"])   # the folder is what it says it is
@@ -307,7 +310,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
 
         pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.tracking)
         progress.poll = pool.poll_progress
-        report_warm = False
+        report_warm = outputs.write_report is None   # matplotlib is loaded for the plots only
         while todo or pool.running:
             while pool.free() and (nxt := take()) is not None:
                 i, st = nxt
@@ -330,7 +333,7 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         pool.release()   # the workers exit while the results and the report are written
         stages = {st.name: stages[st.name] for st in plan}
         progress.phase("final results: the optimum and the extremes checked and polished ...", "final results …")
-        results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish)
+        results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish, outputs.reference_note)
         progress.phase("integrals: every reported design's indices by adaptive cubature ...", "integrals …")
         from .integrals import integrals_of_reported
 
@@ -345,14 +348,14 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
         results.update(wall_time_s=wall, evaluations=evals)
         folder.write_json("results.json", results)
-        from .report import write_report
-
-        progress.phase("writing report: results.md and its plots ...", "writing report …")
-        write_report(cfg, folder, results, stages)
+        if outputs.write_report is not None:
+            progress.phase("writing report: results.md and its plots ...", "writing report …")
+            outputs.write_report(cfg, folder, results, stages)
         stop.completed = True   # from here a signal changes nothing: the manifest is about to say complete
         folder.complete(wall_time_s=wall, evaluations=evals)
-        progress.phase("writing report: report.html ...", "writing report.html …")
-        _html_report(folder)
+        if outputs.write_html is not None:
+            progress.phase("writing report: report.html ...", "writing report.html …")
+            outputs.write_html(folder)
         ended = "complete"
         return PipelineResult(folder, results, stages, wall_before_s=wall_before)
     except KeyboardInterrupt as exc:
@@ -381,13 +384,3 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             pool.close()
         if own:
             stop.restore()
-
-
-def _html_report(folder) -> None:
-    """report.html of the finished run; a failure is written down, never loses the run."""
-    try:
-        from ..report_html import write_report_html
-
-        write_report_html(folder.path)
-    except Exception as exc:  # noqa: BLE001
-        folder.write_text("report-error.txt", f"{type(exc).__name__}: {exc}\n")

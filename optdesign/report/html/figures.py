@@ -12,10 +12,10 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
-from ..evaluate import mechanism_class
+from ...evaluate import mechanism_class
 from .atlas import AtlasMap
 from .rundata import Front, RunData
-from ..units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
+from ...units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
 
 __all__ = ["TEMPLATE", "fmt", "matrix_trace", "style_matrix", "convergence_figures", "front_splom",
            "front_parcoords", "atlas_figures", "design_points", "hover_lines", "objective_sense"]

@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import Config, ConfigError
-from .evaluate import evaluate, mechanism_class
-from .io import atomic_write_bytes, atomic_write_text
-from .names import check_inside
-from .units import index_label, label, pose_display
-from .workspace import MAX_POINTS, Workspace, WorkspaceSpec
+from ..config import Config, ConfigError
+from ..evaluate import evaluate, mechanism_class
+from ..io import atomic_write_bytes, atomic_write_text
+from ..names import check_inside
+from ..units import index_label, label, pose_display
+from ..workspace import MAX_POINTS, Workspace, WorkspaceSpec
 
 __all__ = ["AtlasMap", "atlas_map", "check_atlas_size", "write_atlas", "DEFAULT_RESOLUTION"]
 

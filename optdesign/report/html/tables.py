@@ -7,7 +7,7 @@ import math
 
 from .figures import esc, fmt
 from .rundata import RunData
-from ..units import DIMENSIONLESS, index_unit, variable_unit
+from ...units import DIMENSIONLESS, index_unit, variable_unit
 
 __all__ = ["html_table", "optimum_table", "index_table", "normalization_table", "placement_table",
            "manifest_table", "objective_text", "reference_table"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..io import atomic_write_text
-from ..runs import RunFolderError
+from ...io import atomic_write_text
+from ...runs import RunFolderError
 from .atlas import DEFAULT_RESOLUTION, atlas_map
 from .figures import atlas_figures, convergence_figures, esc, fmt, front_parcoords, front_splom, front_title
 from .page import Page, plotly_js_version
@@ -14,7 +14,7 @@ from .views import COPY_SCRIPT, alternatives, copy_table, mechanism_figure, work
 from .certificates import certificates_html, optimum_status_html
 from .tables import (index_table, manifest_table, normalization_table, objective_text, optimum_table,
                      placement_table, reference_table)
-from ..units import index_unit, variable_unit
+from ...units import index_unit, variable_unit
 
 __all__ = ["build_report", "write_report_html", "REPORT_NAME"]
 

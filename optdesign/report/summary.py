@@ -31,8 +31,7 @@ import numpy as np
 from ..io import atomic_write_bytes, atomic_write_text
 from ..runs import RunFolder, RunFolderError
 from ..tables import fmt_g, table
-from .schema import sweep_label
-from .tasks import config_key
+from .folders import config_key, config_of_folder, sweep_label
 
 __all__ = ["row_from_folder", "collect_folders", "group_stats", "summary_tables", "summary_plot", "summarize",
            "pooled_rows", "design_space_key"]
@@ -299,8 +298,6 @@ def _quantity_labels(rows: Sequence[dict], qs: Sequence[str]) -> dict[str, str]:
         if key in seen:
             continue
         try:
-            from ..optimize.runner import config_of_folder
-
             cfg = config_of_folder(r["folder"])
         except Exception:  # noqa: BLE001 - a folder that cannot be read: the next one
             continue

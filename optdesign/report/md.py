@@ -129,7 +129,7 @@ def format_results(cfg: Config, results: dict) -> str:
     lines.append(f"Mechanism `{cfg.mechanism}`, seed {results['seed']}, {results['workspace_points']} workspace points, "
                  f"{results.get('evaluations', '?')} design evaluations, wall time {results.get('wall_time_s', '?')} s.")
     lines.append("")
-    from .report_certificates import certificate_lines, status_text
+    from .certificates import certificate_lines, status_text
 
     certs = results.get("certificates") or {}
     cert = f" ({status_text(certs['optimum'])} over W)" if "optimum" in certs else ""
@@ -259,7 +259,7 @@ def extremes_lines(cfg: Config, results: dict) -> list[str]:
     """Where each extreme of the normalization was found (design, stage, how),
     and whether a later stage moved one (then every normalized objective of
     the report is recomputed from the final extremes)."""
-    from .report_certificates import status_text
+    from .certificates import status_text
 
     norm = results.get("normalization", {})
     certs = results.get("certificates") or {}
@@ -331,7 +331,7 @@ def optimality_lines(cfg: Config, results: dict) -> list[str]:
 
 
 def write_report(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
-    from .report_plots import plots as _plots
+    from .png import plots as _plots
 
     folder.write_text("results.md", format_results(cfg, results))
     folder.write_text("optimum.yaml", optimum_yaml(cfg, results, folder.path.name))

@@ -7,14 +7,14 @@ import io
 
 import numpy as np
 
-from .config import Config
-from .units import index_label, label
+from ..config import Config
+from ..units import index_label, label
 
 __all__ = ["atlas_png"]
 
 
 def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
-    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.atlas.AtlasMap`)."""
+    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.report.atlas.AtlasMap`)."""
     import matplotlib
 
     matplotlib.use("Agg")

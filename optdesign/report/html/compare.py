@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import plotly.graph_objects as go
 
-from ..io import atomic_write_text
+from ...io import atomic_write_text
 from .figures import (COLORS, MARKS, TEMPLATE, _front_values, design_points, esc, fmt, hover_lines, matrix_trace,
                       style_matrix)
 from .page import Page
-from ..runs import RunFolderError
+from ...runs import RunFolderError
 from .rundata import RunData, load_run
 from .tables import html_table, objective_text
-from ..units import DIMENSIONLESS, index_label, index_unit, objective_unit, variable_unit
+from ...units import DIMENSIONLESS, index_label, index_unit, objective_unit, variable_unit
 
 __all__ = ["build_compare", "write_compare_html"]
 

@@ -1,4 +1,4 @@
-"""The atlas of the report: :mod:`optdesign.atlas` (one grid of its own for the
+"""The atlas of the report: :mod:`optdesign.report.atlas` (one grid of its own for the
 PNGs, the CSV and the page)."""
 from ..atlas import DEFAULT_RESOLUTION, AtlasMap, atlas_map
 

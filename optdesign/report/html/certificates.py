@@ -2,7 +2,7 @@
 continuous workspace (results.json["certificates"]), in the config's units."""
 from __future__ import annotations
 
-from ..units import pose_display
+from ...units import pose_display
 from .figures import esc
 from .rundata import RunData
 from .tables import html_table

@@ -13,9 +13,9 @@ import itertools
 import numpy as np
 import plotly.graph_objects as go
 
-from ..evaluate import build, evaluate, mechanism_class
-from ..workspace import Workspace, WorkspaceSpec
-from ..units import index_label, pose_display, variable_unit
+from ...evaluate import build, evaluate, mechanism_class
+from ...workspace import Workspace, WorkspaceSpec
+from ...units import index_label, pose_display, variable_unit
 from .figures import TEMPLATE, esc
 from .rundata import Front, RunData
 

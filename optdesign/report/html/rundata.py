@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Config, parse_config
-from ..runs import FORMAT_VERSION, MAX_CONFIG, MAX_JSON, RunFolder, RunFolderError
-from ..units import strip_unit
+from ...config import Config, parse_config
+from ...runs import FORMAT_VERSION, MAX_CONFIG, MAX_JSON, RunFolder, RunFolderError
+from ...units import strip_unit
 
 __all__ = ["RunData", "Front", "load_run", "MAX_FILE_BYTES"]
 
