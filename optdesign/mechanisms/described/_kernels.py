@@ -58,6 +58,7 @@ from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import chunk_moments, lambda_max_psd
 from ...fast._jit import dot3_dd as _dot3_dd
 from ...fast._jit import minor_dd as _minor_dd
+from ...formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # the value ids
 
 #: points per task: the unit of the reductions and of parallel work
 CHUNK = 256
@@ -65,10 +66,9 @@ CHUNK = 256
 BLK = 64
 #: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the numpy path)
 HARD = 1000.0
-#: local values (rows of the kernel's output)
-DYN, SMIN2, SMIN, FRO, TWO, DET, IFRO = 0, 1, 2, 3, 4, 5, 6
-COL0 = 7            # COL0 + a: squared norm of column a of J (axis stiffness)
-NVAL = 13
+#: local values (rows of the kernel's output): the ids DYN, SMIN2, SMIN, FRO,
+#: TWO, DET, IFRO, COL0 + a (squared norm of column a of J: axis stiffness),
+#: NVAL of optdesign.formulas (imported above)
 #: layout of the per-leg constants L (D, n, NL)
 LA, LP, LU, LR0, LS0 = 0, 3, 6, 9, 12
 LLA, LLR, LMACT, LMROD, LIROD, LFROD, LM1, LE1, LM2, LE2, LI12, LSG = range(15, 27)
