@@ -342,7 +342,10 @@ def select(kind: str, convention: str | None, options: dict, n) -> tuple[LocalVa
     """(row, c, a) of an index kind with its convention and options for
     matrices of n columns: ``row.value(Operands(J, M), c, a)`` is its local
     value.  c: ``k`` (stiffness: ``sqrt(k)`` for ``sqrt_lambda_min_K``; axis
-    stiffness), n (normalized dexterity) or 1; a: the ``axis`` option."""
+    stiffness), n (normalized dexterity) or 1; a: the ``axis`` option.
+    ValueError for a kind or convention the table does not have."""
+    if (kind, convention) not in _KINDS:
+        raise ValueError(f"no local value for index kind {kind!r} with convention {convention!r}")
     row = VALUES[_KINDS[(kind, convention)]]
     k = options.get("k", 1.0)
     c = 1.0

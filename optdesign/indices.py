@@ -5,7 +5,9 @@ local value that cannot be computed (a singular or unreachable pose) is ``inf``
 for indices to be minimized and ``0`` for indices to be maximized, never a
 silent NaN: a design whose workspace meets a singularity then scores worst.
 
-Index kinds (the names a config uses):
+Index kinds (the names a config uses); each local value is a row of the
+table :data:`optdesign.formulas.VALUES` (its numpy formula, shared with the
+compiled paths' LAPACK hand-off and the gradients):
 
 ==============  =======  ==============================================================
 kind            sense    local value

@@ -19,8 +19,5 @@ def local_derivative(kind: str, convention: str | None, options: dict, J, dJ, M=
     d sigma_k = u_k^T dA v_k; cond_F from the Frobenius norms of A and A^-1;
     d sqrt(det G) = sqrt(det G) <G^-1 J, dJ> for G = J J^T (and J H^-1 for
     H = J^T J)."""
-    try:
-        row, c, a = select(kind, convention, options or {}, None if J is None else J.shape[-1])
-    except KeyError:
-        raise ValueError(f"no derivative for index kind {kind!r}") from None
+    row, c, a = select(kind, convention, options or {}, None if J is None else J.shape[-1])
     return row.derivative(M, dM, c, a) if row.needs == "M" else row.derivative(J, dJ, c, a)

@@ -33,23 +33,26 @@ def _stack(rng, n, K, log_cond):
     return U @ (s[..., None] * np.swapaxes(V, -1, -2))
 
 
+def _direct_one(name, Jk, Mk, c, a):
+    """The value of one matrix straight from numpy.linalg (no SVD where another route exists)."""
+    if name == "dynamic":
+        return np.linalg.norm(Mk, 2)
+    if name == "col_sq":
+        return c * np.linalg.norm(Jk[:, a]) ** 2
+    if name in ("det_JJt", "det_JtJ"):
+        return abs(np.linalg.det(Jk))
+    if name == "cond_fro":
+        return np.linalg.cond(Jk, "fro")
+    if name == "cond_2":
+        return np.linalg.cond(Jk)
+    Ji = np.linalg.inv(Jk)
+    if name == "inv_cond_fro":
+        return c / (np.linalg.norm(Jk, "fro") * np.linalg.norm(Ji, "fro"))
+    return {"sigma_min_sq": c / np.linalg.norm(Ji, 2) ** 2, "sigma_min": c / np.linalg.norm(Ji, 2)}[name]
+
+
 def _direct(name, J, M, c, a):
-    """The value straight from numpy.linalg, one matrix at a time (no SVD where another route exists)."""
-    out = []
-    for Jk, Mk in zip(J, M):
-        Ji = np.linalg.inv(Jk)
-        out.append({
-            "dynamic": lambda: np.linalg.norm(Mk, 2),
-            "sigma_min_sq": lambda: c / np.linalg.norm(Ji, 2) ** 2,
-            "sigma_min": lambda: c / np.linalg.norm(Ji, 2),
-            "cond_fro": lambda: np.linalg.cond(Jk, "fro"),
-            "cond_2": lambda: np.linalg.cond(Jk),
-            "det_JJt": lambda: abs(np.linalg.det(Jk)),
-            "det_JtJ": lambda: abs(np.linalg.det(Jk)),
-            "inv_cond_fro": lambda: c / (np.linalg.norm(Jk, "fro") * np.linalg.norm(Ji, "fro")),
-            "col_sq": lambda: c * np.linalg.norm(Jk[:, a]) ** 2,
-        }[name]())
-    return np.array(out)
+    return np.array([_direct_one(name, Jk, Mk, c, a) for Jk, Mk in zip(J, M)])
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5, 6])
@@ -110,6 +113,10 @@ def test_the_table_and_the_index_kinds_agree():
     assert F.kernel_value("axis_stiffness", None, (("axis", 3),), 3) is None
     assert F.kernel_value("axis_stiffness", None, (("axis", 2),), 3) == (F.COL0 + 2, 1.0)
     assert F.kernel_value("nonsense", None, (), 3) is None
+    assert F.kernel_value("axis_stiffness", "frobenius", (), 3) is None
+    for kind, conv in (("nonsense", None), ("isotropy", "nonsense"), ("axis_stiffness", "frobenius")):
+        with pytest.raises(ValueError, match="no local value"):
+            F.select(kind, conv, {}, 3)
 
 
 def test_the_table_imports_numpy_only():
@@ -159,7 +166,7 @@ def test_the_described_kernel_computes_each_id_as_the_table():
 
     if compiled.kernels() is None:
         pytest.skip("numba not available")
-    mech, cfg = _p4s_legs(12, 4)
+    mech, _ = _p4s_legs(12, 4)
     dof = mech.dof
     kinds = KINDS + [("axis_stiffness", None, {"axis": 0}), ("axis_stiffness", None, {"axis": 2, "k": 2.0})]
     reqs = [IndexRequest(f"r{i}", k, c, tuple(sorted(o.items()))) for i, (k, c, o) in enumerate(kinds)]
@@ -168,7 +175,7 @@ def test_the_described_kernel_computes_each_id_as_the_table():
     home = np.array([[0.0, 0.0, 0.57]])
     for X in (home, home + [[0.03, -0.02, 0.01]], home + [[-0.05, 0.04, -0.03]]):
         assert np.all(compiled.reach_codes(mech, X) == 1)
-        got, reach = compiled.global_statistics(mech, reqs, X)
+        got, _ = compiled.global_statistics(mech, reqs, X)
         mats = mech.index_matrices(X, {"J", "M"})
         for r, (kind, conv, opts) in zip(reqs, kinds):
             ref = local_index(kind, J=mats["J"], M=mats["M"], convention=conv, options=opts)[:, 0]
