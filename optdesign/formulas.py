@@ -26,12 +26,19 @@ c is the factor of :func:`select` (an option ``k``, ``n`` of normalized
 dexterity, else 1).  The kernels (:mod:`optdesign.mechanisms.described._kernels`,
 :mod:`optdesign.mechanisms.p4s.kernels`) compute each value with c = 1 in
 inline arithmetic of their own (QR, closed-form eigenvalues: no dispatch in
-the point loop) into the column of its id; their callers scale the reductions
-(sum, min, max, centred sum of squares) by c > 0 (:func:`kernel_value`).  The
+the point loop) into the column of its id (the 3-P(4S) kernel: ids 0..4);
+their callers scale the reductions by c > 0 (:func:`kernel_value`).  The
 global index is the mean of the local value over the reachable points
 (:mod:`optdesign.indices`).  The numpy paths (:mod:`optdesign.indices`, the
 points the kernels leave to LAPACK) call ``VALUES[...].value``; the gradients
 (:mod:`optdesign.local_derivatives`) ``.derivative``.
+
+Two routes to one number, kept as they were: a derivative entry returns its
+own value (the SVD with its vectors; cond_F through the inverse), equal to
+``.value`` to a few ulps (cond_F and its inverse: to about eps cond_F); the
+Gram determinants lose about eps cond(J)^2 relative where the described
+kernel's |det J| (from its QR) loses eps cond(J) (its points of cond_F >=
+1000 get the numpy formula).
 
 Imports numpy only: the bottom of the package.
 """
