@@ -2,7 +2,7 @@
 in one process, and the public kinematics API against the bare kernels.
 
 * ``evaluate()`` of the embedded paper config (indices dynamic, stiffness,
-  isotropy) on the bench inputs of ``optdesign bench`` (50 random designs x
+  isotropy) on the bench inputs of ``bench_throughput.py`` (50 random designs x
   1000 points, 1 design x 10^6 points): the earlier revision's whole package
   is extracted from git into a temporary folder as ``optdesign_<rev>`` (its
   numba cache kept there between runs) and timed beside the current one; the

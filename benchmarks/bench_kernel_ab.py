@@ -6,9 +6,9 @@ taken from git and compiled as a module of its own (in a directory under the
 temp dir that is kept between runs, so its numba cache is reused).
 
 * speed of the bare kernel ``p4s_summary`` (incl. the per-design reductions),
-  indices dynamic, stiffness, Frobenius isotropy (as ``optdesign bench``
+  indices dynamic, stiffness, Frobenius isotropy (as ``bench_throughput.py``
   calls it): 50 random designs in the paper config's box x 1000 points (made
-  as ``optdesign.commands.bench._setup`` makes them) and 1 design x 10^6
+  as ``benchmarks/_common.setup`` makes them) and 1 design x 10^6
   points, on 1 and 2 threads, best of ``--repeat`` runs, CPU/wall of the best
   run (2 = both cores busy);
 * bitwise equality (``np.array_equal(..., equal_nan=True)`` on every output:
@@ -31,6 +31,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
+from _common import setup as _setup
 from _revision import kernel_module  # noqa: E402
 from bench_before_after import _best  # noqa: E402
 
@@ -46,7 +47,6 @@ def _old_kernels(rev: str):
 
 def _bench_inputs(D, N, seed=0):
     from optdesign.mechanisms.p4s import compiled as fast
-    from optdesign.commands.bench import _setup
     from optdesign.config import load_config
     from optdesign.mechanisms.p4s import P4S
 

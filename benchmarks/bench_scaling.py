@@ -85,9 +85,9 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     import numba
+    from _common import machine
 
     from optdesign.mechanisms.p4s import compiled as fast
-    from optdesign.commands.bench import machine
 
     if args.threads:
         numba.set_num_threads(args.threads)

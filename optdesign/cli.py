@@ -64,7 +64,7 @@ from .config import ConfigError  # noqa: E402
 
 #: order in which commands are listed in --help
 _ORDER = ["reproduce", "run", "init", "evaluate", "certify", "atlas", "ik", "fk", "batch", "summarize", "report", "compare",
-          "export", "status", "bench", "validate-config", "validate-dynamics"]
+          "export", "status", "bench", "validate-config", "validate-dynamics", "kernel-source"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -86,10 +86,9 @@ class _Parser(argparse.ArgumentParser):
 
     def _suggest(self, message: str) -> str:
         import ast
-        import difflib
         import re
 
-        from .config.reader import shorten
+        from .checking import shorten, suggest
 
         m = re.match(r"^(argument .*?: )?invalid choice: (?P<value>.*?) \(choose from (?P<choices>.*)\)$", message)
         if m:
@@ -98,15 +97,13 @@ class _Parser(argparse.ArgumentParser):
                 choices = [str(c) for c in ast.literal_eval("[" + m.group("choices") + "]")]
             except (ValueError, SyntaxError):
                 return message
-            close = difflib.get_close_matches(str(value), choices, n=1, cutoff=0.5)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            hint = suggest(str(value), choices, cutoff=0.5)
             return f"{m.group(1) or ''}invalid choice {shorten(value)}{hint}; expected one of {', '.join(choices)}"
         m = re.match(r"^unrecognized arguments: (?P<rest>.*)$", message)
         if m:
             first = m.group("rest").split(" ")[0]
             options = self._options_of_command()
-            close = difflib.get_close_matches(first.split("=")[0], options, n=1, cutoff=0.6) if first.startswith("-") else []
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            hint = suggest(first.split("=")[0], options) if first.startswith("-") else ""
             return f"unrecognized arguments: {shorten(m.group('rest'))[1:-1]}{hint}"
         return message
 

@@ -158,13 +158,14 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
     if needs_M and model.kinetic_fn is None:
         return "the CasADi model has no kinetic energy"
     with np.errstate(all="ignore"):
-        Q = np.broadcast_to(mech.inverse(X), (D, N, model.n_act))
-        Jm = np.broadcast_to(mech.jacobian(X), (D, N, model.n_act, model.dof))
+        st = mech.state(X)        # one inverse kinematics for Q, J and M
+        Q = np.broadcast_to(st.q, (D, N, model.n_act))
+        Jm = np.broadcast_to(st.J, (D, N, model.n_act, model.dof))
     if not set(model.param_names) <= set(mech.params):
         return "the CasADi model reads parameters the mechanism does not have"
     if values_only:
         with np.errstate(all="ignore"):
-            M = np.broadcast_to(mech.mass_matrix(X), Jm.shape) if needs_M else None
+            M = np.broadcast_to(st.matrices({"M"})["M"], Jm.shape) if needs_M else None
         none = np.zeros(Jm.shape + (0,))
         return Jm, none, M, None if M is None else none, Q, np.zeros(Q.shape + (0,))
     pv = np.stack([np.broadcast_to(np.asarray(mech.params[k], dtype=float).reshape(-1, 1), (D, N)).ravel()
@@ -192,7 +193,7 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
     M = dM = None
     if needs_M:
         with np.errstate(all="ignore"):
-            Mm = np.broadcast_to(mech.mass_matrix(X), (D, N, model.n_act, model.dof)).reshape(n, model.n_act, model.dof)
+            Mm = np.broadcast_to(st.matrices({"M"})["M"], (D, N, model.n_act, model.dof)).reshape(n, model.n_act, model.dof)
         Mp = _columns(outs[3], model.dof, n, model.dof)
         dMp = _vec_columns(outs[4], model.dof, model.dof, n, nf)
         Jr = Jm_f[reach]

@@ -25,8 +25,9 @@ def local_values(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D
         return {k: np.broadcast_to(v, (D, X.shape[0])) for k, v in vals.items()}, np.broadcast_to(reach, (D, X.shape[0]))
     needs = {INDEX_KINDS[r.kind].needs for r in requests}
     with np.errstate(all="ignore"):
-        reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
-        mats = mech.index_matrices(X, needs)
+        st = mech.state(X)        # one inverse kinematics for the mask and the matrices
+        reach = np.broadcast_to(st.reachable, (D, X.shape[0]))
+        mats = st.matrices(needs)
         vals = {r.name: np.broadcast_to(local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
                                                     options=r.option_dict()), reach.shape) for r in requests}
     return vals, reach
@@ -68,9 +69,10 @@ def _numpy_statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexReques
     needs = {INDEX_KINDS[r.kind].needs for r in requests}
     summary, local = {}, {}
     with np.errstate(all="ignore"):
+        st = mech.state(X)        # one inverse kinematics for the mask and the matrices
         if reach is None:
-            reach = np.broadcast_to(mech.reachable(X), (D, X.shape[0]))
-        mats = mech.index_matrices(X, needs)
+            reach = np.broadcast_to(st.reachable, (D, X.shape[0]))
+        mats = st.matrices(needs)
         for r in requests:
             vals = local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
                                options=r.option_dict())

@@ -312,9 +312,9 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
                 c, reach = vals["cond"].T, reach.T
                 return np.where(reach & np.isfinite(c), c, np.inf)
             with np.errstate(all="ignore"):
-                reach = np.asarray(m.reachable(X), bool)
-                J = m.index_matrices(X, {"J"})["J"]
-                c = np.asarray(local_index(kind, J=J, M=None, convention=convention, options={}), float)
+                st = m.state(X)
+                reach = np.asarray(st.reachable, bool)
+                c = np.asarray(local_index(kind, J=st.J, M=None, convention=convention, options={}), float)
             return np.where(reach & np.isfinite(c), c, np.inf)
         return f
 
@@ -327,8 +327,9 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
 
             def f(X):
                 with np.errstate(all="ignore"):
-                    reach = np.asarray(m.reachable(X), bool)
-                    v = np.max(np.asarray(m.inverse(X), float) * sign, axis=-1)
+                    st = m.state(X)
+                    reach = np.asarray(st.reachable, bool)
+                    v = np.max(np.asarray(st.q, float) * sign, axis=-1)
                 return np.where(reach & np.isfinite(v), v, np.inf)
             return f
         out["q_max"] = lambda index: q(index, 1.0)
@@ -356,9 +357,9 @@ def _sampled_cond(mech, X: np.ndarray, request, D: int, serial: bool = True) -> 
             vals, reach = fast
             v = np.broadcast_to(vals[request.name], (D, X.shape[0]))
         else:
-            reach = mech.reachable(X)
-            v = local_index(request.kind, J=mech.index_matrices(X, {"J"})["J"], M=None,
-                            convention=request.convention, options={})
+            st = mech.state(X)
+            reach = st.reachable
+            v = local_index(request.kind, J=st.J, M=None, convention=request.convention, options={})
         reach = np.broadcast_to(reach, (D, X.shape[0]))
         v = np.broadcast_to(v, (D, X.shape[0]))
     return np.where(reach & np.isfinite(v), v, np.inf)

@@ -149,7 +149,8 @@ MISTAKES = [
     ("worst-case-not-bool", _set(["optimizer", "worst_case"], "yes"), "optimizer.worst_case", "expected true or false"),
     ("margin-too-large", _set(["optimizer", "constraint_margin"], 0.7), "optimizer.constraint_margin",
      "expected a fraction in [0, 0.5)"),
-    ("margin-negative", _set(["optimizer", "constraint_margin"], -0.01), "optimizer.constraint_margin", "non-negative"),
+    ("margin-negative", _set(["optimizer", "constraint_margin"], -0.01), "optimizer.constraint_margin",
+     "expected a fraction in [0, 0.5), got -0.01"),
 ]
 
 

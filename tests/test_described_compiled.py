@@ -56,7 +56,7 @@ def _compare(cfg, designs, ws=None, tol=1e-12):
 
 
 def _uses_kernel(cfg, designs, ws=None):
-    from optdesign.mechanisms.described.compiled import requests_of
+    from optdesign.evaluate import index_requests
 
     ws = ws or workspace_of(cfg)
     kw = dict(cfg.parameters)
@@ -64,7 +64,7 @@ def _uses_kernel(cfg, designs, ws=None):
     from optdesign.mechanisms import get
 
     mech = get(cfg.mechanism)(**kw)
-    return mech.global_statistics(requests_of(cfg, list(cfg.indices)), ws.X) is not None
+    return mech.global_statistics(index_requests(cfg), ws.X) is not None
 
 
 def _random_designs(cfg, rng, D):

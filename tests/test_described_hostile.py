@@ -70,7 +70,7 @@ CASES = [
     ("too few legs", GS, [("mechanism.legs.0.pattern.angles", [0, 120])], "mechanism.legs", "4 legs for a pose of 6"),
     ("unknown pose type", GS, [("mechanism.pose.type", "helical")], "mechanism.pose.type", "unknown pose type"),
     ("home of an unknown coordinate", GS, [("mechanism.pose.home", {"w": 0.7})], "mechanism.pose.home.w", "unknown pose coordinate"),
-    ("pattern unit", GS, [("mechanism.legs.0.pattern.unit", "grad")], "mechanism.legs[0].pattern.unit", "expected rad or deg"),
+    ("pattern unit", GS, [("mechanism.legs.0.pattern.unit", "grad")], "mechanism.legs[0].pattern.unit", "expected one of deg, rad"),
     ("parameter kind", GS, [("mechanism.parameters.R_b", "lenght")], "mechanism.parameters.R_b.kind", "did you mean 'length'?"),
     ("parameter named like a function", GS, [("mechanism.parameters.sin", "length")], "mechanism.parameters.sin",
      "function or constant"),

@@ -133,12 +133,13 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
 
     def value(X):
         with np.errstate(all="ignore"):
-            reach = np.asarray(mech.reachable(X), bool).reshape(-1)
-            J = mech.index_matrices(X, {"J"})["J"]
+            st = mech.state(X)
+            reach = np.asarray(st.reachable, bool).reshape(-1)
+            J = st.J
             J = J.reshape((X.shape[0],) + J.shape[-2:])
             c = np.where(reach, cond(J), np.inf)
             if stroke_limits is not None:
-                Q = np.asarray(mech.inverse(X)).reshape(X.shape[0], -1)
+                Q = np.asarray(st.q).reshape(X.shape[0], -1)
                 bad = np.any((Q < stroke_limits[0]) | (Q > stroke_limits[1]), axis=-1)
                 c = np.where(bad, np.inf, c)
         return np.where(np.isfinite(c), c, np.inf)
@@ -148,8 +149,9 @@ def certify_design(mech, region: dict, limit: float, convention: str = "two_norm
     if out["status"] == "refuted":
         X = np.array([out["witness"]])
         with np.errstate(all="ignore"):
-            reach = bool(np.asarray(mech.reachable(X)).reshape(-1)[0])
-            Q = np.asarray(mech.inverse(X)).reshape(-1)
+            st = mech.state(X)
+            reach = bool(np.asarray(st.reachable).reshape(-1)[0])
+            Q = np.asarray(st.q).reshape(-1)
         stroke = stroke_limits is not None and bool(np.any((Q < stroke_limits[0]) | (Q > stroke_limits[1])))
         out["reason"] = "unreachable" if not reach else "stroke" if stroke else "singularity"
         if out["value"] is not None and not np.isfinite(out["value"]):

@@ -1,313 +1,105 @@
-"""optdesign bench [--points N] [--designs D] [--json]: throughput of the local
-index evaluation (per-point Python loop, numpy path, compiled fast path, all in
-this one process), of forward kinematics, and the wall time of ``optdesign
-reproduce`` run in a subprocess."""
+"""optdesign bench --list | NAME [ARGS...]: the scripts in ``benchmarks/``.
+
+A thin front end: ``--list`` prints every benchmark with the first sentence
+of its docstring; ``optdesign bench NAME ARGS`` runs ``python
+benchmarks/<NAME>.py ARGS`` (NAME with or without its ``bench_`` prefix) in a
+fresh process, with this checkout on the module path, and returns its exit
+status.  The measurements live in the scripts.  ``benchmarks/`` sits beside
+the package in the repository; an installation without it (a wheel) says so.
+"""
 from __future__ import annotations
 
-import json
-import math
+import argparse
+import ast
 import os
-import platform
+import re
 import subprocess
 import sys
-import tempfile
-import time
+from pathlib import Path
 
 COMMAND = "bench"
 
 
 def register(sub):
-    p = sub.add_parser(COMMAND, help="measure points per second of the index evaluation paths and the reproduce wall time")
-    p.add_argument("--points", type=int, default=1000, metavar="N", help="workspace points per design (default 1000)")
-    p.add_argument("--designs", type=int, default=50, metavar="D", help="designs per call (default 50)")
-    p.add_argument("--loop-points", type=int, default=200, metavar="n",
-                   help="points for the per-point Python loop (default 200)")
-    p.add_argument("--numpy-max", type=int, default=200_000, metavar="K",
-                   help="at most this many design x point pairs for the numpy path (default 200000)")
-    p.add_argument("--fk-poses", type=int, default=1_000_000, metavar="N", help="poses for forward kinematics (default 1e6)")
-    p.add_argument("--repeat", type=int, default=7, help="timed repetitions; the best one is reported (default 7)")
-    p.add_argument("--threads", type=int, default=None, help="numba threads (default: all)")
-    p.add_argument("--reproduce-points", type=int, default=1000, metavar="N",
-                   help="at least this many workspace points per design for the reproduce timing (default 1000)")
-    p.add_argument("--no-reproduce", action="store_true", help="skip timing optdesign reproduce")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p = sub.add_parser(COMMAND, help="run a benchmark of benchmarks/ (--list shows them)",
+                       description="Run a script of the repository's benchmarks/ folder: "
+                                   "'optdesign bench NAME [ARGS...]' is 'python benchmarks/NAME.py ARGS'; "
+                                   "'optdesign bench NAME --help' shows its options.")
+    p.add_argument("--list", action="store_true", help="list the benchmarks with a one-line description")
+    p.add_argument("name", nargs="?", metavar="NAME", help="a benchmark (e.g. throughput or bench_throughput)")
+    p.add_argument("args", nargs=argparse.REMAINDER, metavar="ARGS", help="the benchmark's own options")
     p.set_defaults(func=run)
 
 
-def machine() -> dict:
-    """CPU model, cores, Python, numpy and numba versions, numba threads."""
-    info = {"python": platform.python_version(), "platform": platform.platform(), "cpus": os.cpu_count()}
+def benchmarks_dir() -> Path | None:
+    """The repository's ``benchmarks/`` folder beside the (editable) package, or
+    None (installed from a wheel: no repository around the package; a
+    ``benchmarks`` folder of some other project in site-packages is not ours)."""
+    import optdesign
+
+    root = Path(optdesign.__file__).resolve().parent.parent
+    d = root / "benchmarks"
+    return d if d.is_dir() and (root / "pyproject.toml").is_file() else None
+
+
+def benchmarks(folder: Path) -> dict[str, Path]:
+    """Every benchmark script of ``folder`` (``*.py`` not starting with ``_``), by name."""
+    return {p.stem: p for p in sorted(folder.glob("*.py")) if not p.name.startswith("_")}
+
+
+def summary(path: Path, width: int = 100) -> str:
+    """The first sentence of the script's module docstring (read, not imported), on one line."""
     try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    info["cpu"] = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        info["cpu"] = platform.processor()
-    import numpy as np
-
-    info["numpy"] = np.__version__
-    try:
-        import numba
-
-        info["numba"] = numba.__version__
-        info["numba_threads"] = numba.get_num_threads()
-        info["threading_layer"] = _threading_layer()
-    except Exception:  # pragma: no cover - numba missing
-        info["numba"] = None
-    return info
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"), str(path))) or ""
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return "(docstring unreadable)"
+    text = " ".join(doc.split("\n\n", 1)[0].split()).replace("``", "")
+    m = re.search(r"[:;](\s|$)|\.(\s+(?=[A-Z])|$)", text)   # not at "eq. 29"
+    text = text[:m.start()] if m else text
+    if len(text) > width:
+        text = text[:width - 3].rsplit(" ", 1)[0] + "..."
+    return text or "(no docstring)"
 
 
-def _threading_layer():
-    import numba
+def resolve(name: str, found: dict[str, Path]) -> Path:
+    """The script of ``name`` (with or without its ``bench_`` prefix); a UsageError if none."""
+    from ..checking import shorten, suggest
+    from ._common import UsageError
 
-    try:
-        return numba.threading_layer()
-    except ValueError:
-        return None
-
-
-def _best(fn, repeat: int) -> tuple[float, float]:
-    """(best, median) wall time of fn() over ``repeat`` calls."""
-    ts = []
-    for _ in range(max(1, repeat)):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    ts.sort()
-    return ts[0], ts[len(ts) // 2]
-
-
-def _setup(cfg, D: int, N: int, seed: int = 0):
-    """D random designs inside the config's bounds and N random points in a box
-    around the paper's workspace plane (x, y in +-0.05 m, z in [0.55, 0.59] m)."""
-    import numpy as np
-
-    from ..workspace import Workspace
-
-    rng = np.random.default_rng(seed)
-    designs = {}
-    for name, dv in cfg.design_variables.items():
-        if dv.bounds is not None:
-            designs[name] = rng.uniform(dv.bounds[0], dv.bounds[1], D)
-    X = np.c_[rng.uniform(-0.05, 0.05, N), rng.uniform(-0.05, 0.05, N), rng.uniform(0.55, 0.59, N)]
-    return designs, Workspace(spec=cfg.workspace, names=("x", "y", "z"), X=X)
-
-
-def _mechanism(cfg, designs, scalar: bool):
-    """The config's mechanism for the bench designs (first one if ``scalar``)."""
-    import numpy as np
-
-    from ..evaluate import build
-
-    params = {k: dv.value for k, dv in cfg.design_variables.items()}
-    params.update({k: (float(v[0]) if scalar else np.asarray(v)[:, None]) for k, v in designs.items()})
-    return build(cfg, params)
-
-
-def python_loop_rate(cfg, n: int) -> float:
-    """Points per second of a straightforward per-point loop (one design, one
-    point at a time through the mechanism's numpy methods and the index functions)."""
-    import numpy as np
-
-    from .. import fast
-    from ..indices import local_index
-
-    designs, ws = _setup(cfg, 1, n, seed=1)
-    mech = _mechanism(cfg, designs, scalar=True)
-    t = time.perf_counter()
-    with np.errstate(all="ignore"), fast.disabled():
-        for j in range(ws.n):
-            x = ws.X[j:j + 1]
-            if not mech.reachable(x)[0]:
-                continue
-            J = mech.jacobian(x)
-            M = mech.mass_matrix(x)
-            for spec in cfg.indices.values():
-                local_index(spec.kind, J=J, M=M, convention=spec.convention, options=spec.options)
-    return ws.n / (time.perf_counter() - t)
-
-
-def local_rates(cfg, D: int, N: int, repeat: int, numpy_max: int) -> dict:
-    """Points per second of evaluate() on the numpy path and on the compiled
-    path (and of the mechanism's bare kernel call, where it offers one), D designs x N points."""
-    import numpy as np
-
-    from .. import fast
-    from ..evaluate import evaluate, index_requests
-
-    designs, ws = _setup(cfg, D, N)
-    out = {"designs": D, "points": N}
-    # numpy path on at most numpy_max pairs (fewer designs, then fewer points)
-    Dn = max(1, min(D, numpy_max // max(N, 1)))
-    Nn = min(N, max(1, numpy_max // Dn))
-    dn = {k: v[:Dn] for k, v in designs.items()}
-    from ..workspace import Workspace
-
-    wsn = Workspace(spec=ws.spec, names=ws.names, X=ws.X[:Nn])
-    with fast.disabled():
-        evaluate(cfg, dn, wsn, errors=False)
-        best, med = _best(lambda: evaluate(cfg, dn, wsn, errors=False), max(1, min(repeat, 3)))
-    out["numpy"] = {"designs": Dn, "points": Nn, "seconds": best, "median_seconds": med, "points_per_s": Dn * Nn / best}
-    mech = _mechanism(cfg, designs, scalar=False)
-    fast.set_enabled(True)
-    try:
-        t = time.perf_counter()
-        answer = mech.global_statistics(index_requests(cfg), ws.X)   # loads (or compiles) the kernels
-        first = time.perf_counter() - t
-        if answer is None:
-            out["fast"] = None
-            out["fast_error"] = f"mechanism {cfg.mechanism!r} has no compiled path here for these indices"
-            return out
-        ev = evaluate(cfg, designs, ws, errors=False)   # the timing is of the global indices alone
-        best, med = _best(lambda: evaluate(cfg, designs, ws, errors=False), repeat)
-    finally:
-        fast.set_enabled(None)
-    out["fast"] = {"first_call_seconds": first, "seconds": best, "median_seconds": med, "points_per_s": D * N / best,
-                   "reachable_fraction": float(np.mean(ev.reachable_fraction))}
-    # the bare kernel (no dispatch, no LAPACK hand-off of ill-conditioned points)
-    bare = getattr(mech, "bare_kernel", None)
-    if bare is not None:
-        call, lapack = bare(ws.X)
-        call()
-        best, med = _best(call, repeat)
-        out["kernel"] = {"seconds": best, "median_seconds": med, "points_per_s": D * N / best,
-                         "lapack_fraction": lapack}
-    return out
-
-
-def fk_rates(cfg, N: int, repeat: int) -> dict:
-    """Poses per second of forward kinematics through the public API: the numpy
-    model and the compiled path (the config's ``after`` design, else its first)."""
-    import numpy as np
-
-    from .. import fast
-    from ..evaluate import build
-
-    name = "after" if "after" in cfg.designs else next(iter(cfg.designs))
-    mech = build(cfg, name)
-    rng = np.random.default_rng(2)
-    X = np.c_[rng.uniform(-0.05, 0.05, N), rng.uniform(-0.05, 0.05, N), rng.uniform(0.55, 0.59, N)]
-    Q = mech.inverse(X)
-    Nn = min(N, 100_000)
-    with fast.disabled():
-        best_np, _ = _best(lambda: mech.forward(Q[:Nn]), max(1, min(repeat, 3)))
-    out = {"poses": N, "design": name, "numpy": {"poses": Nn, "seconds": best_np, "poses_per_s": Nn / best_np}}
-    fast.set_enabled(True)
-    try:
-        P = mech.forward(Q)
-        with fast.disabled():
-            compiled = not np.array_equal(P[:100], mech.forward(Q[:100]), equal_nan=True)
-        best, med = _best(lambda: mech.forward(Q), repeat)
-    finally:
-        fast.set_enabled(None)
-    if compiled:
-        out["fast"] = {"seconds": best, "median_seconds": med, "poses_per_s": N / best,
-                       "max_error_m": float(np.max(np.abs(P - X)))}
-    return out
-
-
-def reproduce_time(min_points: int, pareto: bool = True) -> dict:
-    """Wall time of ``optdesign reproduce`` (a fresh process, start-up included)
-    on the paper's config with its workspace grid refined to at least
-    ``min_points`` points: twice with the default ``--jobs`` (the second run
-    finds the compiled kernels cached on disk), then once with ``--jobs 1``
-    (the stages one after the other in one process) as the baseline."""
-    import yaml
-
-    from importlib.resources import files
-
-    data = yaml.safe_load((files("optdesign") / "data" / "p4s_paper.yaml").read_text())
-    ws = data["workspace"]
-    lo, hi = ws["axes"]["x"]
-    per_axis = max(2, math.ceil(math.sqrt(min_points)))
-    ws.pop("step", None)
-    ws["points_per_axis"] = per_axis
-    res = {"workspace_points": per_axis * per_axis, "pareto": pareto, "runs": []}
-    with tempfile.TemporaryDirectory() as tmp:
-        cfg = os.path.join(tmp, "p4s_bench.yaml")
-        with open(cfg, "w") as f:
-            yaml.safe_dump(data, f)
-        cmd = [sys.executable, "-m", "optdesign.cli", "reproduce", cfg, "--out", os.path.join(tmp, "runs"), "--quiet"]
-        if not pareto:
-            cmd.append("--no-pareto")
-        from ..optimize.pipeline import default_jobs
-
-        for jobs in (None, None, 1):
-            t = time.perf_counter()
-            p = subprocess.run(cmd + (["--jobs", str(jobs)] if jobs else []), capture_output=True, text=True)
-            dt = time.perf_counter() - t
-            res["runs"].append({"seconds": dt, "exit_status": p.returncode, "jobs": jobs or default_jobs()})
-            if p.returncode != 0:
-                res["error"] = (p.stderr or p.stdout).strip().splitlines()[-1:] 
-                break
-    t = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "import optdesign.cli, optdesign.evaluate as e; "
-                    "from optdesign.commands._common import open_config as o; c = o(None); "
-                    "e.evaluate(c, [c.initial_design()])"], capture_output=True)
-    res["startup_seconds"] = time.perf_counter() - t
-    return res
+    for key in (name, f"bench_{name}", name[:-3] if name.endswith(".py") else None):
+        if key in found:
+            return found[key]
+    short = {k.removeprefix("bench_"): k for k in found}
+    hint = suggest(name, list(found)) or suggest(name, list(short))
+    raise UsageError(f"bench: no benchmark named {shorten(name)}{hint}; see 'optdesign bench --list'")
 
 
 def run(args) -> int:
-    from ._common import UsageError, open_config
-    from ..tables import print_table
+    from ._common import UsageError
 
-    if args.points < 1 or args.designs < 1 or args.loop_points < 1 or args.fk_poses < 1 or args.repeat < 1:
-        raise UsageError("bench: --points, --designs, --loop-points, --fk-poses and --repeat must be positive")
-    if args.threads is not None:
-        import numba
-
-        if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
-            raise UsageError(f"bench: --threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
-        numba.set_num_threads(args.threads)
-    cfg = open_config(None)
-    res = {"machine": machine()}
-    loop = python_loop_rate(cfg, args.loop_points)
-    res["python_loop"] = {"points": args.loop_points, "points_per_s": loop}
-    res["local"] = local_rates(cfg, args.designs, args.points, args.repeat, args.numpy_max)
-    res["fk"] = fk_rates(cfg, args.fk_poses, args.repeat)
-    if not args.no_reproduce:
-        res["reproduce"] = reproduce_time(args.reproduce_points)
-    if args.json:
-        print(json.dumps(res, indent=2))
+    folder = benchmarks_dir()
+    if folder is None:
+        raise UsageError("bench: no benchmarks/ folder beside the package (it ships with the repository, "
+                         "not with an installed wheel); run it from a checkout installed with 'pip install -e .'")
+    found = benchmarks(folder)
+    if args.list or not args.name:
+        if args.name or args.args:
+            raise UsageError("bench: --list takes no benchmark name")
+        width = max(map(len, found), default=0)
+        for k, p in found.items():
+            print(f"{k:<{width}}  {summary(p)}")
+        if not args.list:
+            print("\nrun one with 'optdesign bench NAME [ARGS...]'; 'optdesign bench NAME --help' shows its options")
         return 0
-    m = res["machine"]
-    print(f"machine: {m.get('cpu')}, {m['cpus']} CPUs; numba {m.get('numba')} "
-          f"({m.get('numba_threads')} threads, {m.get('threading_layer')}); numpy {m['numpy']}")
-    loc = res["local"]
-    npr = loc["numpy"]["points_per_s"]
-    rows = [["per-point Python loop", f"1 x {args.loop_points}", f"{loop:,.0f}", f"{loop / npr:.3g}"],
-            ["numpy path (evaluate)", f"{loc['numpy']['designs']} x {loc['numpy']['points']}", f"{npr:,.0f}", "1"]]
-    if loc.get("fast"):
-        f = loc["fast"]["points_per_s"]
-        rows.append(["fast path (evaluate)", f"{args.designs} x {args.points}", f"{f:,.0f}", f"{f / npr:,.0f}"])
-    if loc.get("kernel"):
-        kr = loc["kernel"]["points_per_s"]
-        rows.append(["fused kernel alone", f"{args.designs} x {args.points}", f"{kr:,.0f}", f"{kr / npr:,.0f}"])
-    print("\nlocal indices (dynamic, stiffness, isotropy) per workspace point, best of "
-          f"{args.repeat}:")
-    print_table(["path", "designs x points", "points/s", "vs numpy"], rows)
-    if loc.get("kernel"):
-        print(f"first fast call (kernel load or compile): {loc['fast']['first_call_seconds']:.2f} s; "
-              f"points handed to LAPACK (cond(J) >= 1000): {100 * loc['kernel']['lapack_fraction']:.2f}%")
-    fk = res["fk"]
-    rows = [["numpy model forward", f"{fk['numpy']['poses']}", f"{fk['numpy']['poses_per_s']:,.0f}", "1", "-"]]
-    if fk.get("fast"):
-        ff = fk["fast"]
-        rows.append(["compiled forward (public API)", f"{fk['poses']}", f"{ff['poses_per_s']:,.0f}",
-                     f"{ff['poses_per_s'] / fk['numpy']['poses_per_s']:,.0f}", f"{ff['max_error_m']:.1e}"])
-    print("\nforward kinematics:")
-    print_table(["path", "poses", "poses/s", "vs numpy", "max error [m]"], rows)
-    if "reproduce" in res:
-        r = res["reproduce"]
-        runs = ", ".join(f"{x['seconds']:.2f} s (--jobs {x['jobs']})" for x in r["runs"])
-        print(f"\noptdesign reproduce ({r['workspace_points']} workspace points per design, Pareto runs included), "
-              f"wall time in fresh processes: {runs}; start-up (imports, kernel load): "
-              f"{r['startup_seconds']:.2f} s")
-        if len(r["runs"]) == 3 and all(x["exit_status"] == 0 for x in r["runs"]):
-            print(f"--jobs 1 / --jobs {r['runs'][1]['jobs']}: {r['runs'][2]['seconds'] / r['runs'][1]['seconds']:.2f}")
-        if "error" in r:
-            print(f"reproduce failed: {r['error']}")
-    return 0
+    script = resolve(args.name, found)
+    root = str(folder.parent)
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([root] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    sys.stdout.flush()
+    proc = subprocess.Popen([sys.executable, str(script), *args.args], env=env)
+    try:
+        return proc.wait()
+    except BaseException:          # Ctrl-C reaches the child too; SIGTERM (Terminated) ends it here
+        proc.terminate()
+        proc.wait()
+        raise

@@ -76,11 +76,10 @@ def run(args) -> int:
     if args.mechanism is None:
         raise UsageError(f"init: expected a mechanism name (one of {', '.join(names)}; see 'optdesign init --list')")
     if args.mechanism not in names:
-        import difflib
+        from ..checking import suggest
 
-        close = difflib.get_close_matches(args.mechanism, list(names), n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise UsageError(f"init: unknown mechanism {args.mechanism[:60]!r}{hint} (expected one of {', '.join(names)})")
+        raise UsageError(f"init: unknown mechanism {args.mechanism[:60]!r}{suggest(args.mechanism, names)}; "
+                         f"expected one of {', '.join(names)}")
     check_name_option(args.name, "init: --name")
     if args.mechanism in available():
         text = scaffold(get(args.mechanism), args.name)

@@ -12,21 +12,18 @@ config's quadrature; ``integral_tolerance: 0`` skips them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
+from .keys import CHECKS, spec_class
 from .reader import Reader
 
-__all__ = ["ChecksSpec", "checks_section", "CHECKS_KEYS"]
+__all__ = ["CHECKS_KEYS", "ChecksSpec", "checks_section"]
 
-CHECKS_KEYS = {"certificate_budget", "integral_tolerance", "integral_max_points"}
+CHECKS_KEYS = CHECKS.allowed()
 
-
-@dataclass(frozen=True)
-class ChecksSpec:
-    certificate_budget: int = 300_000
-    integral_tolerance: float = 1e-4
-    integral_max_points: int = 200_000
+#: the checks' settings, one field per key of :data:`.keys.CHECKS` (its defaults)
+ChecksSpec = spec_class("ChecksSpec", CHECKS, "How hard a run checks the designs it reports (docs/config.md, checks).",
+                        __name__)
 
 
 def checks_section(r: Reader, raw: Any) -> ChecksSpec:
@@ -35,16 +32,4 @@ def checks_section(r: Reader, raw: Any) -> ChecksSpec:
     path = "checks"
     m = r.mapping(raw, path)
     r.only(m, path, CHECKS_KEYS)
-    kw: dict[str, Any] = {}
-    if "certificate_budget" in m:
-        kw["certificate_budget"] = r.integer(m["certificate_budget"], f"{path}.certificate_budget", minimum=0,
-                                             maximum=100_000_000)
-    if "integral_tolerance" in m:
-        t = r.number(m["integral_tolerance"], f"{path}.integral_tolerance", nonneg=True)
-        if t != 0 and not 1e-10 <= t <= 0.5:
-            r.fail(f"{path}.integral_tolerance", f"expected 0 (no integrals) or a relative tolerance in [1e-10, 0.5], got {t:g}")
-        kw["integral_tolerance"] = t
-    if "integral_max_points" in m:
-        kw["integral_max_points"] = r.integer(m["integral_max_points"], f"{path}.integral_max_points", minimum=100,
-                                              maximum=10_000_000)
-    return ChecksSpec(**kw)
+    return ChecksSpec(**CHECKS.read(r, m, path))

@@ -19,15 +19,15 @@ from typing import Any, Mapping
 
 from ..names import name_problem, safe_default_name
 from . import yamlsafe
+from .checks import checks_section
+from .keys import TOP
 from .reader import SMALLEST, UNITS, ConfigError, Reader, join, show, suggest
 from .schema import Config, DesignVariable, IndexSpec
-from .checks import checks_section
 from .sections import optimizer_section, workspace_section
 
 __all__ = ["load_config", "parse_config", "from_mapping"]
 
-TOP_KEYS = {"mechanism", "name", "description", "parameters", "design_variables", "designs",
-            "workspace", "indices", "optimizer", "reference", "checks"}
+TOP_KEYS = TOP.allowed()
 
 
 def load_config(path: str | os.PathLike) -> Config:
@@ -92,7 +92,7 @@ def from_mapping(data: Any, source: str, run_folder: bool = False) -> Config:
     else:    # the file's name, made safe as a folder name
         name = safe_default_name(Path(source).stem, mech_name) if source != "<string>" else mech_name
     if data.get("description") is not None:
-        r.string(data["description"], "description")
+        TOP["description"].read(r, data["description"], "description")
 
     # fixed parameters
     params: dict[str, float] = {}

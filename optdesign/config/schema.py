@@ -6,9 +6,10 @@ from typing import Any
 
 from ..workspace import WorkspaceSpec
 from .checks import ChecksSpec
+from .keys import OPTIMIZER, spec_class
 from .reader import UNITS, ConfigError
 
-__all__ = ["DesignVariable", "IndexSpec", "OptimizerSpec", "Config", "WorkspaceSpec"]
+__all__ = ["Config", "DesignVariable", "IndexSpec", "OptimizerSpec", "WorkspaceSpec"]
 
 
 @dataclass(frozen=True)
@@ -40,34 +41,11 @@ class IndexSpec:
     options: dict = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
-class OptimizerSpec:
-    """Settings of the weighted-sum GA and of the Pareto runs (see optdesign.optimize)."""
-
-    algorithm: str = "de"          # pymoo's DE (docs/config.md); the paper's GA: "paper_ga"
-    population: int = 50
-    generations: int = 100
-    crossover_probability: float = 0.8
-    elites: int = 2
-    mutation_probability: float = 0.2
-    fitness_scaling: str = "rank"
-    seed: int = 1
-    weights: dict[str, float] = field(default_factory=dict)
-    pareto_algorithms: tuple[str, ...] = ("nsga2", "nsga3")
-    pareto_population: int = 100
-    pareto_generations: int = 100
-    extra_objectives: tuple[str, ...] = ()
-    singularity_threshold: float = 1e3
-    stroke_limits: tuple[float, float] | None = None
-    worst_case: bool = True        # local constraints hold at every pose of W (optdesign.worstcase), not at the samples
-    constraint_margin: float = 1e-3  # optimize against limit (1 - margin); certificates use the limit itself
-    checkpoint_interval: float = 1.0  # s between GA checkpoints; 0 = after every generation
-    prescan: int | None = None     # Sobol designs of the pre-scan (rounded up to a power of two); 0 = none;
-                                   # None: the smaller of 2048 and population x generations
-    polish: int = 3                # starts of the gradient polish after each stage; 0 = no polish
-    extremes_starts: int = 4       # polished starts per extreme of the seed-free multi-start (optimize.extremes);
-                                   # 0 = none; off whenever polish is 0
-    extremes_scan: int = 4096      # designs of its seed-free Sobol scan (rounded up to a power of two)
+#: settings of the stages (see optdesign.optimize): one field per key of
+#: :data:`.keys.OPTIMIZER` (``pareto.population`` -> ``pareto_population``), its default the table's
+OptimizerSpec = spec_class("OptimizerSpec", OPTIMIZER,
+                           "Settings of the stages, the searches and the Pareto runs (docs/config.md, optimizer).",
+                           __name__)
 
 
 @dataclass

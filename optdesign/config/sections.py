@@ -4,17 +4,16 @@ from __future__ import annotations
 from typing import Any
 
 from ..workspace import MAX_POINTS, WorkspaceSpec, point_count
+from .keys import OPTIMIZER, WORKSPACE
 from .reader import UNITS, Reader, join, show, suggest, tname
 from .schema import OptimizerSpec
 
-__all__ = ["workspace_section", "optimizer_section", "WS_KEYS", "OPT_KEYS", "REMOVED_OPT_KEYS", "SAMPLING"]
+__all__ = ["OPT_KEYS", "REMOVED_OPT_KEYS", "SAMPLING", "WS_KEYS", "optimizer_section", "workspace_section"]
 
-WS_KEYS = {"type", "axes", "sampling", "step", "points_per_axis", "points", "seed", "radius",
-           "center", "unit", "scramblings", "tolerance", "max_points"}
-SAMPLING = {"grid", "gauss", "rqmc", "sobol", "halton", "lhs", "random", "adaptive"}
-#: adaptive sampling: the default relative tolerance and node budget, the range of the tolerance
-ADAPTIVE_TOLERANCE, ADAPTIVE_MAX_POINTS, TOLERANCE_RANGE = 1e-3, 200_000, (1e-10, 0.5)
-#: most points a workspace sample may have
+WS_KEYS = WORKSPACE.allowed()
+SAMPLING = set(WORKSPACE["sampling"].check.values)
+#: adaptive sampling: the default relative tolerance and node budget
+ADAPTIVE_TOLERANCE, ADAPTIVE_MAX_POINTS = WORKSPACE["tolerance"].default, WORKSPACE["max_points"].default
 #: keys that a sampling does not take (a mistake to give)
 _NOT_FOR = {
     "gauss": {"step": "a Gauss rule places points_per_axis nodes per axis",
@@ -26,10 +25,7 @@ _NOT_FOR = {
     "rqmc": {"step": "rqmc places 'points' Sobol points per scrambling",
              "points_per_axis": "rqmc places 'points' Sobol points per scrambling"},
 }
-OPT_KEYS = {"algorithm", "population", "generations", "crossover_probability", "elites", "fitness_scaling",
-            "mutation_probability", "seed", "weights", "pareto",
-            "extra_objectives", "singularity_threshold", "stroke_limits", "prescan", "polish",
-            "checkpoint_interval", "worst_case", "constraint_margin", "extremes"}
+OPT_KEYS = OPTIMIZER.allowed()
 #: keys of earlier versions that had no effect: refused in a new config, ignored in a run folder's
 REMOVED_OPT_KEYS = {
     "normalization": "every term is normalized so that 0 is best, and the literal eq. 38 runs as its own stage",
@@ -57,7 +53,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     path = "workspace"
     ws = r.mapping(ws, path)
     r.only(ws, path, WS_KEYS)
-    wtype = r.string(ws.get("type", "box"), f"{path}.type", choices={"box", "cylinder"})
+    wtype = WORKSPACE["type"].read(r, ws.get("type", WORKSPACE["type"].default), f"{path}.type")
     names = tuple(mech_cls.pose_names)
     axes_raw = r.mapping(r.require(ws, "axes", path), f"{path}.axes")
     r.only(axes_raw, f"{path}.axes", set(names))
@@ -82,7 +78,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     if wtype == "cylinder":
         if len(names) != 3:
             r.fail(f"{path}.type", f"a cylinder needs three pose axes; this mechanism has {len(names)} ({', '.join(names)})")
-        radius = r.number(r.require(ws, "radius", path), f"{path}.radius", positive=True) * scale
+        radius = WORKSPACE["radius"].read(r, r.require(ws, "radius", path), f"{path}.radius") * scale
         if "center" in ws:
             c = ws["center"]
             if not isinstance(c, (list, tuple)) or len(c) != 2:
@@ -94,7 +90,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
     elif "radius" in ws or "center" in ws:
         key = "radius" if "radius" in ws else "center"
         r.fail(f"{path}.{key}", f"'{key}' is for type: cylinder; a box takes its ranges from 'axes'")
-    sampling = r.string(ws.get("sampling", "grid"), f"{path}.sampling", choices=SAMPLING)
+    sampling = WORKSPACE["sampling"].read(r, ws.get("sampling", WORKSPACE["sampling"].default), f"{path}.sampling")
     for key, why in _NOT_FOR.get(sampling, {}).items():
         if key in ws:
             r.fail(f"{path}.{key}", f"not used by sampling '{sampling}' ({why}); remove it")
@@ -104,7 +100,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         if key in ws and sampling != "adaptive":
             r.fail(f"{path}.{key}", f"only sampling 'adaptive' takes {key}, not '{sampling}'")
     step = ppa = pts = None
-    scramblings = 8
+    scramblings = WORKSPACE["scramblings"].default
     tolerance, max_points = None, ADAPTIVE_MAX_POINTS
     free = sum(1 for lo, hi in axes.values() if hi > lo)
     if sampling == "gauss":
@@ -113,12 +109,8 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         if total > MAX_POINTS:
             r.fail(f"{path}.points_per_axis", f"{ppa} nodes per axis give {show(total)} points; expected at most {MAX_POINTS:,}")
     elif sampling == "adaptive":
-        tolerance = r.number(ws.get("tolerance", ADAPTIVE_TOLERANCE), f"{path}.tolerance")
-        lo, hi = TOLERANCE_RANGE
-        if not lo <= tolerance <= hi:
-            r.fail(f"{path}.tolerance", f"expected a relative tolerance in [{lo:g}, {hi:g}], got {show(ws['tolerance'])}")
-        max_points = r.integer(ws.get("max_points", ADAPTIVE_MAX_POINTS), f"{path}.max_points", minimum=1000,
-                               maximum=MAX_POINTS)
+        tolerance = WORKSPACE["tolerance"].read(r, ws.get("tolerance", ADAPTIVE_TOLERANCE), f"{path}.tolerance")
+        max_points = WORKSPACE["max_points"].read(r, ws.get("max_points", ADAPTIVE_MAX_POINTS), f"{path}.max_points")
     elif sampling == "rqmc":
         pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=2, maximum=MAX_POINTS)
         if pts & (pts - 1):
@@ -126,7 +118,7 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
             r.fail(f"{path}.points", f"expected a power of 2 (a Sobol set is balanced in blocks of 2^m), "
                                      f"got {pts}; use {lo2} or {2 * lo2}")
         if "scramblings" in ws:
-            scramblings = r.integer(ws["scramblings"], f"{path}.scramblings", minimum=2, maximum=1024)
+            scramblings = WORKSPACE["scramblings"].read(r, ws["scramblings"], f"{path}.scramblings")
         if pts * scramblings > MAX_POINTS:
             r.fail(f"{path}.points", f"{pts} points x {scramblings} scramblings give {show(pts * scramblings)} points; "
                                      f"expected at most {MAX_POINTS:,}")
@@ -137,19 +129,19 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
         if "step" in ws and "points_per_axis" in ws:
             r.fail(f"{path}.points_per_axis", "give 'step' or 'points_per_axis', not both")
         if "step" in ws:
-            step = r.number(ws["step"], f"{path}.step", positive=True) * scale
+            step = WORKSPACE["step"].read(r, ws["step"], f"{path}.step") * scale
             if step <= 0:          # a subnormal step that the unit's factor took to zero
                 r.fail(f"{path}.step", f"step {show(ws['step'])} is too small to be a grid step")
         elif "points_per_axis" in ws:
-            ppa = r.integer(ws["points_per_axis"], f"{path}.points_per_axis", minimum=1, maximum=MAX_POINTS)
+            ppa = WORKSPACE["points_per_axis"].read(r, ws["points_per_axis"], f"{path}.points_per_axis")
         else:
             r.fail(f"{path}.step", "a grid needs 'step' or 'points_per_axis'")
     else:
         for key in ("step", "points_per_axis"):
             if key in ws:
                 r.fail(f"{path}.{key}", f"'{key}' is for sampling: grid (or gauss); {sampling} sampling takes 'points'")
-        pts = r.integer(r.require(ws, "points", path), f"{path}.points", minimum=1, maximum=MAX_POINTS)
-    seed = r.integer(ws.get("seed", 0), f"{path}.seed", minimum=0, maximum=2 ** 32 - 1)
+        pts = WORKSPACE["points"].read(r, r.require(ws, "points", path), f"{path}.points")
+    seed = WORKSPACE["seed"].read(r, ws.get("seed", WORKSPACE["seed"].default), f"{path}.seed")
     spec = WorkspaceSpec(type=wtype, axes=axes, sampling=sampling, step=step, points_per_axis=ppa,
                          points=pts, seed=seed, radius=radius, center=center, unit=unit, scramblings=scramblings,
                          tolerance=tolerance, max_points=max_points)
@@ -163,8 +155,9 @@ def workspace_section(r: Reader, ws: Any, mech_cls) -> WorkspaceSpec:
 
 def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
                       run_folder: bool = False) -> OptimizerSpec:
-    """The optimizer settings; ``run_folder``: the config of an earlier run,
-    whose removed keys (:data:`REMOVED_OPT_KEYS`) are ignored, not refused."""
+    """The optimizer settings (the keys of :data:`.keys.OPTIMIZER`); ``run_folder``:
+    the config of an earlier run, whose removed keys (:data:`REMOVED_OPT_KEYS`)
+    are ignored, not refused."""
     path = "optimizer"
     if opt is None:
         return OptimizerSpec(weights={k: 1.0 for k in indices})
@@ -175,24 +168,10 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
                 r.fail(f"{path}.{key}", f"this key was removed ({why}); delete it")
             opt = {k: v for k, v in opt.items() if k != key}
     r.only(opt, path, OPT_KEYS)
-    kw: dict[str, Any] = {}
-    if "algorithm" in opt:
-        kw["algorithm"] = r.string(opt["algorithm"], f"{path}.algorithm", choices={"paper_ga", "pymoo_ga", "de"})
-    for key, lo in (("population", 4), ("generations", 1), ("elites", 0)):
-        if key in opt:
-            kw[key] = r.integer(opt[key], f"{path}.{key}", minimum=lo, maximum=100_000)
-    if "elites" in kw and kw["elites"] >= kw.get("population", 50):
-        r.fail(f"{path}.elites", f"expected fewer elites than the population ({kw.get('population', 50)}), got {kw['elites']}")
-    for key in ("crossover_probability", "mutation_probability"):
-        if key in opt:
-            x = r.number(opt[key], f"{path}.{key}")
-            if not 0 <= x <= 1:
-                r.fail(f"{path}.{key}", f"expected a probability in [0, 1], got {x:g}")
-            kw[key] = x
-    if "seed" in opt:
-        kw["seed"] = r.integer(opt["seed"], f"{path}.seed", minimum=0, maximum=2**32 - 1)
-    if "fitness_scaling" in opt:
-        kw["fitness_scaling"] = r.string(opt["fitness_scaling"], f"{path}.fitness_scaling", choices={"rank", "linear"})
+    kw: dict[str, Any] = OPTIMIZER.read(r, opt, path)
+    population = kw.get("population", OPTIMIZER["population"].default)
+    if "elites" in kw and kw["elites"] >= population:
+        r.fail(f"{path}.elites", f"expected fewer elites than the population ({population}), got {kw['elites']}")
     weights = {k: 1.0 for k in indices}
     if "weights" in opt:
         wm = r.mapping(opt["weights"], f"{path}.weights")
@@ -207,45 +186,12 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
         if sum(weights.values()) <= 0:
             r.fail(f"{path}.weights", "expected at least one positive weight")
     kw["weights"] = weights
-    if "pareto" in opt and opt["pareto"] is not None:
-        pm = r.mapping(opt["pareto"], f"{path}.pareto")
-        r.only(pm, f"{path}.pareto", {"algorithms", "population", "generations"})
-        if "algorithms" in pm:
-            algs = pm["algorithms"]
-            if not isinstance(algs, list):
-                r.fail(f"{path}.pareto.algorithms", f"expected a list, got {tname(algs)}")
-            kw["pareto_algorithms"] = tuple(r.string(a, f"{path}.pareto.algorithms[{i}]", choices={"nsga2", "nsga3"}) for i, a in enumerate(algs))
-        if "population" in pm:
-            kw["pareto_population"] = r.integer(pm["population"], f"{path}.pareto.population", minimum=4, maximum=100_000)
-        if "generations" in pm:
-            kw["pareto_generations"] = r.integer(pm["generations"], f"{path}.pareto.generations", minimum=1, maximum=100_000)
+    for sub in ("pareto", "extremes"):       # sub-mappings; null is the same as absent
+        if opt.get(sub) is not None:
+            m = r.mapping(opt[sub], f"{path}.{sub}")
+            r.only(m, f"{path}.{sub}", OPTIMIZER.allowed(sub))
+            kw.update(OPTIMIZER.read(r, m, f"{path}.{sub}", level=sub))
     if "extra_objectives" in opt:
-        eo = opt["extra_objectives"]
-        if not isinstance(eo, list):
-            r.fail(f"{path}.extra_objectives", f"expected a list, got {tname(eo)}")
-        kw["extra_objectives"] = tuple(r.string(x, f"{path}.extra_objectives[{i}]", choices=set(mech_cls.extra_objectives)) for i, x in enumerate(eo))
-    if "singularity_threshold" in opt:
-        kw["singularity_threshold"] = r.number(opt["singularity_threshold"], f"{path}.singularity_threshold", positive=True)
-    if "stroke_limits" in opt:
-        kw["stroke_limits"] = r.pair(opt["stroke_limits"], f"{path}.stroke_limits")
-    if "worst_case" in opt:
-        kw["worst_case"] = r.boolean(opt["worst_case"], f"{path}.worst_case")
-    if "constraint_margin" in opt:
-        x = r.number(opt["constraint_margin"], f"{path}.constraint_margin", nonneg=True)
-        if x >= 0.5:
-            r.fail(f"{path}.constraint_margin", f"expected a fraction in [0, 0.5), got {x:g}")
-        kw["constraint_margin"] = x
-    if "prescan" in opt:
-        kw["prescan"] = r.integer(opt["prescan"], f"{path}.prescan", minimum=0, maximum=1_000_000)
-    if "polish" in opt:
-        kw["polish"] = r.integer(opt["polish"], f"{path}.polish", minimum=0, maximum=100)
-    if "extremes" in opt and opt["extremes"] is not None:
-        em = r.mapping(opt["extremes"], f"{path}.extremes")
-        r.only(em, f"{path}.extremes", {"starts", "scan"})
-        if "starts" in em:
-            kw["extremes_starts"] = r.integer(em["starts"], f"{path}.extremes.starts", minimum=0, maximum=100)
-        if "scan" in em:
-            kw["extremes_scan"] = r.integer(em["scan"], f"{path}.extremes.scan", minimum=1, maximum=1_000_000)
-    if "checkpoint_interval" in opt:
-        kw["checkpoint_interval"] = r.number(opt["checkpoint_interval"], f"{path}.checkpoint_interval", nonneg=True)
+        kw["extra_objectives"] = OPTIMIZER["extra_objectives"].read(r, opt["extra_objectives"], f"{path}.extra_objectives",
+                                                                    choices=set(mech_cls.extra_objectives))
     return OptimizerSpec(**kw)

@@ -14,8 +14,9 @@ from typing import Any, Callable, ClassVar, Mapping, Sequence
 import numpy as np
 
 from .params import Param, derived_tables
+from .state import PoseState
 
-__all__ = ["Mechanism", "IndexRequest", "ExtraObjective", "Param"]
+__all__ = ["Mechanism", "IndexRequest", "ExtraObjective", "Param", "PoseState"]
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,12 @@ class Mechanism:
         bitwise.  Every answer must equal the numpy path's to 1e-12 relative."""
         return None
 
+    def kernel_source(self, title: str) -> str | None:
+        """The generated code of this mechanism's compiled kernel as the source
+        of a module (its header names ``title``), or None: the mechanism has no
+        generated kernel (a hand-written one, or none)."""
+        return None
+
     def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's local values for these requests at the points X
         (N, dof): ``(values, reachable)`` with ``values[request.name]`` (D, N)
@@ -241,11 +248,42 @@ class Mechanism:
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
         """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
         (actuator-space mass matrix of the dynamic index)."""
+        return self.state(X).matrices(needs)
+
+    # ------------------------------------------------------------------ state
+    # One state per (design population, poses) (:mod:`.state`): the inverse
+    # kinematics and what follows from it, computed once and shared by every
+    # index, constraint and backend asking at these poses.  A mechanism with a
+    # kinematic core (its per-leg inverse kinematics) overrides the ``*_of``
+    # methods to compute each quantity from it; the defaults below call the
+    # public methods.
+    def state(self, X: np.ndarray) -> PoseState:
+        """The state of this mechanism (design or population) at poses X (..., N, dof)."""
+        return PoseState(self, X)
+
+    def kinematic_core(self, X: np.ndarray):
+        """The per-pose inverse kinematics and leg geometry every other quantity
+        is computed from, or None (the default: no shared core)."""
+        return None
+
+    def inverse_of(self, st: PoseState) -> np.ndarray:
+        return self.inverse(st.X)
+
+    def reachable_of(self, st: PoseState) -> np.ndarray:
+        if type(self).reachable is Mechanism.reachable:
+            return np.all(np.isfinite(st.q), axis=-1)
+        return self.reachable(st.X)
+
+    def jacobian_of(self, st: PoseState) -> np.ndarray:
+        return self.jacobian(st.X)
+
+    def index_matrices_of(self, st: PoseState, needs: set[str]) -> dict[str, np.ndarray]:
+        """``J`` and/or ``M`` at the state's poses (``needs``)."""
         out: dict[str, np.ndarray] = {}
         if "J" in needs:
-            out["J"] = self.jacobian(X)
+            out["J"] = st.J
         if "M" in needs:
-            out["M"] = self.mass_matrix(X)
+            out["M"] = self.mass_matrix(st.X)
         return out
 
     def __repr__(self) -> str:

@@ -43,71 +43,68 @@ the reachable mask:
 The reductions: fixed chunks of CHUNK points per design, each with its count,
 sum, min, max and centred sum of squares in point order, combined in chunk
 order, so results do not depend on the number of threads.
+
+The memory layout (the row and column numbers above) is :mod:`._layout`; the
+straight-line routines generated per size and spec are written by
+:mod:`._codegen` (``optdesign kernel-source CONFIG`` prints them).
 """
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 from numba import njit, prange
-from numba.extending import overload
 from numba import uint64 as _u
+from numba.extending import overload
 
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import chunk_moments, lambda_max_psd
 from ...fast._jit import dot3_dd as _dot3_dd
 from ...fast._jit import minor_dd as _minor_dd
-from ...formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # the value ids
+from . import _layout
+from ._codegen import GLOBALS, KernelSpec, routine_source, size_of_type
+from ._layout import (BA, BLK, BS, BW, CHUNK, COL0, CT_ROLL, DET, DYN, FCEN, FCOM, FIP, FMP, FRE, FRO, FRO_, FRR, GAL,
+                      GDE, GG, GGA, GK, GR, HARD, IFRO, LA, LE1, LE2, LFROD, LI12, LIROD, LLA, LLR, LM1, LM2, LMACT,
+                      LMROD, LP, LR0, LS0, LSG, LU, NB, NFR, NLG, NVAL, NVS, SMIN, SMIN2, TWO, VBETA, VDET, VI2, VLJ,
+                      VLU, VLW, VMASK, VOK, VV0)
+# the rest of the layout, read by compiled.py and the tests as K.<name>
+from ._layout import CT_PITCH, FFIX, FR_ROWS, NEWTON, NEWTON_DYN, NF, NL, TAU, VF2, VS, VX  # noqa: F401
 
-#: points per task: the unit of the reductions and of parallel work
-CHUNK = 256
-#: points per structure-of-arrays block (rows of the scratch arrays)
-BLK = 64
-#: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the numpy path)
-HARD = 1000.0
-#: local values (rows of the kernel's output): the ids DYN, SMIN2, SMIN, FRO,
-#: TWO, DET, IFRO, COL0 + a (squared norm of column a of J: axis stiffness),
-#: NVAL of optdesign.formulas (imported above)
-#: layout of the per-leg constants L (D, n, NL)
-LA, LP, LU, LR0, LS0 = 0, 3, 6, 9, 12
-LLA, LLR, LMACT, LMROD, LIROD, LFROD, LM1, LE1, LM2, LE2, LI12, LSG = range(15, 27)
-NL = 27
-#: layout of the per-design constants F (D, NF)
-FCEN, FFIX, FMP, FIP, FCOM = 0, 3, 6, 7, 16
-NF = 19
-#: columns of the per-point frame data FR (Dr, N, FR_ROWS[ptype]), rows of a
-#: block's frame data (rows, BLK): the origin from the pose (0 for rotation
-#: poses), R row-major (not for translation poses), the Euler columns' entries
-#: (cos yaw cos pitch, sin yaw cos pitch, -sin pitch, -sin yaw, cos yaw;
-#: rotation and spatial poses); their number per pose type
-FRO_, FRR, FRE = 0, 3, 12
-NFR = 17
-FR_ROWS = (3, 12, 17, 17)
-#: pose-column kinds (ct): 0..5 a twist component; roll's and pitch's Euler columns
-CT_ROLL, CT_PITCH = 6, 7
-#: rows of the per-leg scratch (n, NLG BLK)
-GR, GG, GK, GAL, GGA, GDE = 0, 3, 9, 15, 16, 17
-NLG = 18
-#: rows of the per-point vector scratch ((NVS + 3 n) BLK)
-VOK, VDET, VF2, VI2, VLJ, VLU, VLW, VBETA, VV0, VX, VMASK, VS = range(12)
-NVS = 12
-#: rows of the rigid-body matrix B (_rigid): mass, first moment, angular block
-BA, BS, BW = 0, 1, 4
-NB = 10
+#: numba's cache of these kernels watches this file only, while the code of
+#: _codegen.py and the numbers of _layout.py (and its ids from
+#: optdesign/formulas.py) are compiled into them: this
+#: file records their digest, so that editing them means editing this file
+#: too (tests/test_kernel_generators.py checks it); until then the kernels
+#: compile without the cache (a warning says so), never from a stale one
+GENERATOR_DIGEST = "d2316951ebdc691a"
+
+
+def generator_digest() -> str:
+    """sha256 (first 16 hex digits) of _codegen.py, _layout.py and the table of
+    value ids optdesign/formulas.py as they are now."""
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.sha256()
+    for path in (Path(__file__).with_name("_codegen.py"), Path(__file__).with_name("_layout.py"),
+                 Path(__file__).parents[2] / "formulas.py"):
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+if generator_digest() != GENERATOR_DIGEST:
+    import warnings
+
+    warnings.warn(f"{__name__}: _codegen.py, _layout.py or formulas.py changed (digest {generator_digest()}, recorded "
+                  f"{GENERATOR_DIGEST}): the kernels compile without numba's cache until GENERATOR_DIGEST is updated",
+                  RuntimeWarning, stacklevel=1)
+    _NJIT = {**_NJIT, "cache": False}
+
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
-_NJIT_RED = dict(cache=True, error_model="numpy", fastmath={"reassoc", "nsz"})
+_NJIT_RED = {**_NJIT, "fastmath": {"reassoc", "nsz"}}
 #: options of the overloads (their code is compiled into the cached kernels that call them)
 _GEN_OPTIONS = dict(error_model="numpy", fastmath=False)
-#: the Newton steps of lambda_max for n >= 4 (J^T J and J^-1 J^-T; W^T W of
-#: the dynamic index), and the relative half-width of their check: points not
-#: certified are bisected, correct but slower, so the counts are a trade-off
-#: (measured on the Gough-Stewart platform: 4 steps certify 90 % of its
-#: W^T W, 5 steps 99.99 %)
-NEWTON = 5
-NEWTON_DYN = 5
-TAU = 1e-13
 
 
 # ---------------------------------------------------------------------- lambda_max
@@ -244,7 +241,7 @@ def _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
 
 @overload(_platform_point, inline="always", jit_options=_GEN_OPTIONS)
 def _ov_platform_point(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
-    if _spec_of(cspec)[2]:
+    if KernelSpec.of_type(cspec).rot:
         def impl(FRb, j, P0, P1, P2, o0, o1, o2, cspec):
             r0 = FRb[_u(FRR * BLK + j)] * P0 + FRb[_u((FRR + 1) * BLK + j)] * P1 + FRb[_u((FRR + 2) * BLK + j)] * P2
             r1 = FRb[_u((FRR + 3) * BLK + j)] * P0 + FRb[_u((FRR + 4) * BLK + j)] * P1 + FRb[_u((FRR + 5) * BLK + j)] * P2
@@ -607,186 +604,20 @@ def _rigid(ptype, F, d, FRb, m, Lg, B, nt, rot):
 
 # ---------------------------------------------------------------------- generated fixed-size code
 # The routines whose loops over matrix indices would otherwise run with
-# run-time bounds (masked) are generated as straight-line code for the size n
-# (the length of the tuple nt) when numba first types a call: one loop over
-# the block's points, every matrix entry a local variable.  Each is an
-# @overload of a stub; the code is compiled into (and cached with) the kernel
-# that calls it, and this file's source is the generator, so editing it
-# invalidates the cache as for any other kernel code.
-_GEN_NAMES = {"math": math, "np": np, "_u": _u, "BLK": BLK, "TAU": TAU,
-              "VDET": VDET, "VI2": VI2, "VBETA": VBETA, "VV0": VV0, "VMASK": VMASK}
+# run-time bounds are generated as straight-line code for the size n (the
+# length of the tuple nt) and the spec (cspec) when numba first types a call
+# (:mod:`._codegen` writes the source; ``optdesign kernel-source`` prints it).
+# Each is an @overload of a stub below; the code is compiled into (and cached
+# with) the kernel that calls it (numba's cache: see GENERATOR_DIGEST).
+_GEN_NAMES = {"math": math, "np": np, "_u": _u, "_lmax3_point": _lmax3_point, "_bisect_flagged": _bisect_flagged,
+              **{k: getattr(_layout, k) for k in GLOBALS if hasattr(_layout, k)}}
 
 
-def _interleave(lines):
-    """The point loop's body (lines after the loop header, for the point j)
-    for two points at once, j and j2 (the second half of the block): the two
-    copies are independent, so the processor overlaps their dependency chains
-    (sqrt, division, the recurrences), which one copy leaves waiting."""
-    i = next(k for k, l in enumerate(lines) if l.startswith("    for j in range(m):"))
-    head, rest = lines[:i], lines[i + 1:]
-    k = next((k for k, l in enumerate(rest) if not l.startswith("        ")), len(rest))
-    body, tail = rest[:k], rest[k:]
-    names = {"j"}
-    for l in body:
-        mt = re.match(r"\s*(\w+)\s*(=|\+=|-=|\*=)", l)
-        if mt:
-            names.add(mt.group(1))
-    pat = re.compile(r"\b(" + "|".join(sorted(names, key=len, reverse=True)) + r")\b")
-    second = [pat.sub(lambda mo: mo.group(1) + "_b" if mo.group(1) != "j" else "j2", l) for l in body]
-    # the distance between the two points is a constant (half the block), so
-    # that LLVM sees the copies do not overlap; the whole block is computed
-    # (columns from m on are scratch, never read)
-    loop = [f"    for j in range({BLK // 2}):", f"        j2 = j + {BLK // 2}"]
-    return head + loop + [x for pair in zip(body, second) for x in pair] + tail
-
-
-def _compile(lines, extra=None):
-    """The function ``impl`` defined by the source lines (generated code)."""
+def _compile(source):
+    """The function ``impl`` defined by the generated source."""
     ns = dict(_GEN_NAMES)
-    ns.update(extra or {})
-    exec(compile("\n".join(lines) + "\n", "<optdesign described kernel (generated)>", "exec"), ns)
+    exec(compile(source, "<optdesign described kernel (generated)>", "exec"), ns)
     return ns["impl"]
-
-
-def _rows(name, n, lower_only=False):
-    """Load statements of the n x n matrix in the rows of the array ``name`` into x_r_c."""
-    return [f"        {name.lower()}{r}_{c} = {name}[_u({(r * n + c)} * BLK + j)]"
-            for r in range(n) for c in range(n) if not (lower_only and c > r)]
-
-
-def _gen_qr_inverse(n):
-    """R of the Householder QR of A, then U = R^-1 (upper triangle stored), |det A| = prod |R_kk|
-    and ||U||_F^2 into V's rows VDET, VI2 (n >= 4)."""
-    L = ["def impl(A, U, V, nt, m):", "    for j in range(m):"]
-    L += _rows("A", n)
-    L.append("        dt = 1.0")
-    for k in range(n):
-        tail = " + ".join(f"a{i}_{k} * a{i}_{k}" for i in range(k + 1, n)) or "0.0"
-        L += [f"        s = {tail}", f"        x0 = a{k}_{k}", "        nr = x0 * x0 + s", "        r = math.sqrt(nr)",
-              "        al = -r if x0 >= 0.0 else r", "        den = nr - al * x0",
-              "        beta = 1.0 / den if den > 0.0 else 0.0", "        v0 = x0 - al", f"        a{k}_{k} = al",
-              "        dt *= r"]
-        for c in range(k + 1, n):
-            dot = "".join(f" + a{i}_{k} * a{i}_{c}" for i in range(k + 1, n))
-            L.append(f"        s = (v0 * a{k}_{c}{dot}) * beta")
-            L.append(f"        a{k}_{c} -= s * v0")
-            L += [f"        a{i}_{c} -= s * a{i}_{k}" for i in range(k + 1, n)]
-    # U = R^-1, column by column from the diagonal up
-    for k in range(n):
-        L.append(f"        u{k}_{k} = 1.0 / a{k}_{k}")
-    for c in range(n):
-        for r in range(c - 1, -1, -1):
-            terms = " + ".join(f"a{r}_{k} * u{k}_{c}" for k in range(r + 1, c + 1))
-            L.append(f"        u{r}_{c} = -({terms}) * u{r}_{r}")
-    sq = " + ".join(f"u{r}_{c} * u{r}_{c}" for r in range(n) for c in range(r, n))
-    L += ["        V[_u(VDET * BLK + j)] = dt", f"        V[_u(VI2 * BLK + j)] = {sq}"]
-    L += [f"        U[_u({r * n + c} * BLK + j)] = u{r}_{c}" for r in range(n) for c in range(r, n)]
-    return _compile(_interleave(L))
-
-
-def _gen_gram(n, mode):
-    """Statements g_a_b (a <= b) of the Gram matrix of x: X^T X (cols), X X^T (rows)
-    or U U^T for the upper triangular U (urows)."""
-    L = []
-    for a in range(n):
-        for b in range(a, n):
-            if mode == "cols":
-                t = " + ".join(f"x{k}_{a} * x{k}_{b}" for k in range(n))
-            elif mode == "rows":
-                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(n))
-            else:
-                t = " + ".join(f"x{a}_{k} * x{b}_{k}" for k in range(b, n))
-            L.append(f"        g{a}_{b} = {t}")
-    return L
-
-
-def _sym(a, b):
-    return f"g{min(a, b)}_{max(a, b)}"
-
-
-def _gen_tridiag_lmax(n, iters):
-    """Straight-line statements: Householder tridiagonalization of the symmetric
-    g (upper triangle), the scaled tridiagonal t0..t(n-1), c0..c(n-2)
-    (squared off-diagonal), iters quadratic-model steps from an upper bound
-    (Gershgorin, Frobenius, and mean + sqrt(n - 1) standard deviation of the
-    eigenvalues: Wolkowicz-Styan), the Sturm check."""
-    L = []
-    for k in range(n - 2):
-        rest = " + ".join(f"{_sym(i, k)} * {_sym(i, k)}" for i in range(k + 2, n)) or "0.0"
-        L += [f"        s = {rest}", f"        x1 = {_sym(k + 1, k)}", "        nr = x1 * x1 + s",
-              "        r = math.sqrt(nr)", "        al = -r if x1 >= 0.0 else r", "        den = nr - al * x1",
-              "        beta = 1.0 / den if den > 0.0 else 0.0", f"        e{k} = al", f"        v{k + 1} = x1 - al"]
-        L += [f"        v{i} = {_sym(i, k)}" for i in range(k + 2, n)]
-        for r in range(k + 1, n):
-            t = " + ".join(f"{_sym(r, c)} * v{c}" for c in range(k + 1, n))
-            L.append(f"        p{r} = beta * ({t})")
-        t = " + ".join(f"v{r} * p{r}" for r in range(k + 1, n))
-        L.append(f"        h = 0.5 * beta * ({t})")
-        L += [f"        w{r} = p{r} - h * v{r}" for r in range(k + 1, n)]
-        for r in range(k + 1, n):
-            for c in range(k + 1, r + 1):
-                L.append(f"        {_sym(r, c)} = {_sym(r, c)} - (v{r} * w{c} + w{r} * v{c})")
-    L += [f"        t{k} = {_sym(k, k)}" for k in range(n)]
-    L.append(f"        e{n - 2} = {_sym(n - 1, n - 2)}")
-    # upper bound: min(Gershgorin, Frobenius); scale to it
-    gs = []
-    for k in range(n):
-        t = f"t{k}" + (f" + abs(e{k - 1})" if k > 0 else "") + (f" + abs(e{k})" if k < n - 1 else "")
-        gs.append(t)
-    L.append("        gb = " + gs[0])
-    L += [f"        gb = max(gb, {t})" for t in gs[1:]]
-    L.append("        fr = " + " + ".join([f"t{k} * t{k}" for k in range(n)] + [f"2.0 * (e{k} * e{k})" for k in range(n - 1)]))
-    L.append("        mu = (" + " + ".join(f"t{k}" for k in range(n)) + f") * {1.0 / n!r}")
-    L.append(f"        sd2 = fr * {1.0 / n!r} - mu * mu")
-    L += [f"        ws = mu + math.sqrt((sd2 if sd2 > 0.0 else 0.0) * {float(n - 1)!r})",
-          "        x0 = min(min(gb, math.sqrt(fr)), ws)", "        sc = x0 if x0 > 0.0 else 0.0",
-          "        s = 1.0 / x0 if x0 > 0.0 else 0.0"]
-    L += [f"        t{k} = t{k} * s" for k in range(n)]
-    L += [f"        c{k} = (e{k} * s) * (e{k} * s)" for k in range(n - 1)]
-    L.append("        x = 1.0")
-    for _ in range(iters):
-        L += ["        f0 = 1.0", "        f1 = x - t0", "        d0 = 0.0", "        d1 = 1.0", "        h0 = 0.0",
-              "        h1 = 0.0"]
-        for k in range(1, n):
-            L += [f"        z = x - t{k}", f"        f2 = z * f1 - c{k - 1} * f0",
-                  f"        d2 = f1 + z * d1 - c{k - 1} * d0", f"        h2 = 2.0 * d1 + z * h1 - c{k - 1} * h0",
-                  "        f0 = f1", "        f1 = f2", "        d0 = d1", "        d1 = d2", "        h0 = h1",
-                  "        h1 = h2"]
-        # larger root of f + f' h + f'' h^2 / 2: h = -2 f / (f' + sqrt(f'^2 - 2 f f''))
-        L += ["        disc = d1 * d1 - 2.0 * f1 * h1", "        den = d1 + math.sqrt(disc if disc > 0.0 else 0.0)",
-              "        x = x + (-2.0 * f1 / den if den != 0.0 else 0.0)"]
-    for tag, y in (("hi", "x * (1.0 + TAU)"), ("lo", "x * (1.0 - TAU)")):
-        L += [f"        y = {y}", "        q0 = 1.0", "        q1 = t0 - y", f"        n{tag} = 1 if q1 < 0.0 else 0"]
-        for k in range(1, n):
-            L += [f"        q2 = (t{k} - y) * q1 - c{k - 1} * q0",
-                  f"        n{tag} += 1 if (q2 < 0.0) != (q1 < 0.0) else 0", "        q0 = q1", "        q1 = q2"]
-    L.append(f"        good = (nhi == {n}) & (nlo < {n})")
-    return L
-
-
-def _gen_lmax(n, mode, iters=NEWTON):
-    """lambda_max of the Gram matrix (mode: cols, rows, urows) of X's n x n matrix
-    into out; for n >= 4 the scaled tridiagonal into T and the points to bisect
-    (not certified, V's VMASK nonzero) flagged in V's row VV0, then bisected."""
-    L = ["def impl(X, out, T, V, nt, m):", "    for j in range(m):"]
-    L += _rows("X", n) if mode != "urows" else [f"        x{r}_{c} = X[_u({r * n + c} * BLK + j)]"
-                                                  for r in range(n) for c in range(r, n)]
-    L += _gen_gram(n, mode)
-    if n == 1:
-        L.append("        out[j] = g0_0")
-    elif n == 2:
-        L += ["        hh = 0.5 * (g0_0 - g1_1)", "        out[j] = 0.5 * (g0_0 + g1_1) + math.sqrt(hh * hh + g0_1 * g0_1)"]
-    elif n == 3:
-        L.append("        out[j] = _lmax3_point(g0_0, g1_1, g2_2, g0_1, g0_2, g1_2)")
-    else:
-        L += _gen_tridiag_lmax(n, iters)
-        L += ["        out[j] = x * sc", "        V[_u(VBETA * BLK + j)] = sc",
-              "        V[_u(VV0 * BLK + j)] = 0.0 if good or V[_u(VMASK * BLK + j)] == 0.0 or not sc > 0.0 else 1.0"]
-        L += [f"        T[_u({k} * BLK + j)] = t{k}" for k in range(n)]
-        L += [f"        T[_u({n + k} * BLK + j)] = c{k}" for k in range(n - 1)]
-        L = _interleave(L)
-        L.append("    _bisect_flagged(T, out, V, nt, m)")
-    return _compile(L, {"_lmax3_point": _lmax3_point, "_bisect_flagged": _bisect_flagged})
 
 
 def _inverse(A, U, V, nt, m):
@@ -797,11 +628,12 @@ def _inverse(A, U, V, nt, m):
 
 @overload(_inverse, jit_options=_GEN_OPTIONS)
 def _ov_inverse(A, U, V, nt, m):
-    if nt.count <= 3:
+    n = size_of_type(nt)
+    if n <= 3:
         def impl(A, U, V, nt, m):
             _inverse_small(A, U, V, nt, m)
         return impl
-    return _gen_qr_inverse(nt.count)
+    return _compile(routine_source("_inverse", n))
 
 
 def _lmax_cols(X, out, T, V, nt, m):
@@ -812,146 +644,42 @@ def _lmax_rows(X, out, T, V, nt, m):
     """out[j] = lambda_max(X X^T) for X from _inverse (upper triangular for n >= 4)."""
 
 
-@overload(_lmax_cols, jit_options=_GEN_OPTIONS)
-def _ov_lmax_cols(X, out, T, V, nt, m):
-    return _gen_lmax(nt.count, "cols")
-
-
-@overload(_lmax_rows, jit_options=_GEN_OPTIONS)
-def _ov_lmax_rows(X, out, T, V, nt, m):
-    return _gen_lmax(nt.count, "urows" if nt.count >= 4 else "rows")
-
-
 def _lmax_dyn(X, out, T, V, nt, m):
     """out[j] = lambda_max(X^T X) for the dynamic index's W (NEWTON_DYN steps)."""
 
 
+@overload(_lmax_cols, jit_options=_GEN_OPTIONS)
+def _ov_lmax_cols(X, out, T, V, nt, m):
+    return _compile(routine_source("_lmax_cols", size_of_type(nt)))
+
+
+@overload(_lmax_rows, jit_options=_GEN_OPTIONS)
+def _ov_lmax_rows(X, out, T, V, nt, m):
+    return _compile(routine_source("_lmax_rows", size_of_type(nt)))
+
+
 @overload(_lmax_dyn, jit_options=_GEN_OPTIONS)
 def _ov_lmax_dyn(X, out, T, V, nt, m):
-    return _gen_lmax(nt.count, "cols", NEWTON_DYN)
-
-
-def _spec_of(cspec):
-    """(pose-column kinds, rods, rotations) from the type of cspec: an array
-    whose record dtype's field names say them (k<i>_<kind> per pose column,
-    rods_<0|1>, rot_<0|1>), so that they are compile-time constants (see
-    column_spec)."""
-    names = list(cspec.dtype.fields.keys())
-    kinds = [int(nm.split("_")[1]) for nm in names if nm.startswith("k")]
-    return kinds, "rods_1" in names, "rot_1" in names
-
-
-def column_spec(ct, rods, rot):
-    """The array (1,) whose record dtype encodes the pose-column kinds ct,
-    whether any leg has a rod and whether the pose has angles (for _spec_of)."""
-    fields = ([(f"k{i}_{int(k)}", "u1") for i, k in enumerate(ct)]
-              + [(f"rods_{int(bool(rods))}", "u1"), (f"rot_{int(bool(rot))}", "u1")])
-    return np.zeros(1, dtype=np.dtype(fields))
-
-
-def _column_vector(kind):
-    """The pose column s (twist component -> coefficient expression, None for 1)."""
-    if kind < 6:
-        return {kind: None}
-    if kind == CT_ROLL:
-        return {3: "e0", 4: "e1", 5: "e2"}
-    return {3: "e3", 4: "e4"}
-
-
-def _times(coef, expr):
-    return expr if coef is None else f"{coef} * {expr}"
-
-
-def _b_entry(k, l):
-    """Entry (k, l), k <= l, of the rigid-body matrix from its ten rows (_rigid):
-    a I, -[s]x and the angular block."""
-    if l < 3:
-        return f"B[_u({BA} * BLK + j)]" if k == l else "0.0"
-    if k < 3:
-        # -[s]x = [[0, s2, -s1], [-s2, 0, s0], [s1, -s0, 0]]
-        c = l - 3
-        sign, comp = {(0, 1): (1, 2), (0, 2): (-1, 1), (1, 0): (-1, 2), (1, 2): (1, 0), (2, 0): (1, 1),
-                      (2, 1): (-1, 0)}.get((k, c), (0, 0))
-        if not sign:
-            return "0.0"
-        return ("" if sign > 0 else "-") + f"B[_u({BS + comp} * BLK + j)]"
-    row = {(3, 3): 0, (4, 4): 1, (5, 5): 2, (3, 4): 3, (3, 5): 4, (4, 5): 5}[(k, l)]
-    return f"B[_u({BW + row} * BLK + j)]"
-
-
-def _gen_dyn(n, kinds, rods, mass_only=False):
-    """W = U^T M_p without M_p stored: M_p = S^T B S + sum_i [gamma_i J_i^T J_i +
-    delta_i (J_i^T K_i + K_i^T J_i)] written as s_a.(B s_b) + sum_i (J_ia P_ib +
-    K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib; the
-    pose columns s of the given kinds (a selection or the Euler columns) are
-    expanded in the code, so only the entries of B they meet are read.
-    mass_only: store M_p itself (full) into W instead (U is not read)."""
-    upper = n >= 4
-    L = ["def impl(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):", "    for j in range(m):"]
-    if any(k >= 6 for k in kinds):
-        L += [f"        e{k} = FRb[_u({FRE + k} * BLK + j)]" for k in range(5)]
-    svec = [_column_vector(k) for k in kinds]
-    need = set()
-    for b in range(n):
-        for l in svec[b]:
-            for a in range(n):
-                for k in svec[a]:
-                    need.add((min(k, l), max(k, l)))
-    L += [f"        b{k}_{l} = {_b_entry(k, l)}" for k, l in sorted(need)]
-    # T_b[k] = (B s_b)_k for the components k the columns meet
-    comps = sorted({k for sv in svec for k in sv})
-    for b in range(n):
-        for k in comps:
-            t = " + ".join(_times(cf, f"b{min(k, l)}_{max(k, l)}") for l, cf in svec[b].items())
-            L.append(f"        tb{b}_{k} = {t}")
-    L += _rows("J", n)
-    if rods:
-        L += [f"        kp{r}_{c} = Kp[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n)]
-    for i in range(n):
-        L.append(f"        ga{i} = Lg[{i}, {GGA} * BLK + j]")
-        if rods:
-            L.append(f"        de{i} = Lg[{i}, {GDE} * BLK + j]")
-        for b in range(n):
-            if rods:
-                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b} + de{i} * kp{i}_{b}")
-                L.append(f"        q{i}_{b} = de{i} * j{i}_{b}")
-            else:
-                L.append(f"        p{i}_{b} = ga{i} * j{i}_{b}")
-    for a in range(n):
-        for b in range(a, n):
-            sbs = " + ".join(_times(cf, f"tb{b}_{k}") for k, cf in svec[a].items())
-            legs = " + ".join(f"j{i}_{a} * p{i}_{b}" + (f" + kp{i}_{a} * q{i}_{b}" if rods else "") for i in range(n))
-            L.append(f"        m{a}_{b} = ({sbs}) + ({legs})")
-    if mass_only:
-        L += [f"        W[_u({a * n + b} * BLK + j)] = m{min(a, b)}_{max(a, b)}" for a in range(n) for b in range(n)]
-        return _compile(L)
-    L += [f"        u{r}_{c} = U[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n) if not (upper and c < r)]
-    for i in range(n):
-        for b in range(n):
-            t = " + ".join(f"u{k}_{i} * m{min(k, b)}_{max(k, b)}" for k in range(n) if not (upper and k > i))
-            L.append(f"        W[_u({i * n + b} * BLK + j)] = {t}")
-    return _compile(L)
+    return _compile(routine_source("_lmax_dyn", size_of_type(nt)))
 
 
 def _dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
-    """W = U^T M_p (U from _inverse), see _gen_dyn; cspec: the pose-column kinds
-    and rods as a type (column_spec)."""
+    """W = U^T M_p (U from _inverse), see _codegen.dyn_source; cspec: the
+    KernelSpec as a type (KernelSpec.numba_args)."""
 
 
 @overload(_dyn_w, jit_options=_GEN_OPTIONS)
 def _ov_dyn_w(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
-    kinds, rods, _ = _spec_of(cspec)
-    return _gen_dyn(nt.count, kinds, rods)
+    return _compile(routine_source("_dyn_w", size_of_type(nt), KernelSpec.of_type(cspec)))
 
 
 def _mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
-    """W = M_p (full), see _gen_dyn."""
+    """W = M_p (full), see _codegen.dyn_source."""
 
 
 @overload(_mass_p, jit_options=_GEN_OPTIONS)
 def _ov_mass_p(B, Lg, J, Kp, FRb, U, W, nt, cspec, m):
-    kinds, rods, _ = _spec_of(cspec)
-    return _gen_dyn(nt.count, kinds, rods, mass_only=True)
+    return _compile(routine_source("_mass_p", size_of_type(nt), KernelSpec.of_type(cspec)))
 
 
 # ---------------------------------------------------------------------- one block of points
@@ -1102,7 +830,7 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
     over the points of code 1, their counts (D,), the codes (D, N) (int8).
 
     nt: a tuple of n zeros (its length, the size, is a compile-time constant);
-    cspec: the pose-column kinds and rods as a type (column_spec: compile-time
+    cspec: the KernelSpec as a type (KernelSpec.numba_args: compile-time
     too); ct (n,): the pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
     FR (1 or D, N, FR_ROWS[ptype]): the frame data of the N points; want (NVAL,) booleans; flags: (dynamic, sigma_min,
     sigma_max, column norms, rods, rotations) booleans.  Work: tasks of CHUNK

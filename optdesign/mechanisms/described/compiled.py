@@ -27,16 +27,7 @@ from ...fast.merge import add_points
 from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, kernel_value, select, singular_values
 from ..base import IndexRequest
 
-__all__ = ["IndexRequest", "requests_of", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
-
-def requests_of(config, names) -> list:
-    """IndexRequests for the config's indices ``names``."""
-    out = []
-    for n in names:
-        s = config.indices[n]
-        out.append(IndexRequest(n, s.kind, s.convention, tuple(sorted((s.options or {}).items()))))
-    return out
-
+__all__ = ["IndexRequest", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
 
 KERNELS = KernelModule("optdesign.mechanisms.described._kernels")
 
@@ -66,7 +57,6 @@ _RATE_COLUMN = {"x": 0, "y": 1, "z": 2, "roll": 6, "pitch": 7, "yaw": 5}
 def pack(mech):
     """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
     from . import _kernels as K
-    from .poses import twist_columns
 
     C = mech.constants
     shape = C.shape
@@ -104,14 +94,37 @@ def pack(mech):
     F[:, K.FMP] = per_design(C.m_platform, ())
     F[:, K.FIP:K.FIP + 9] = per_design(C.I_platform, (3, 3)).reshape(D, 9)
     F[:, K.FCOM:K.FCOM + 3] = per_design(C.com, (3,))
+    return shape_codes(mech), L, F, D
+
+
+def shape_codes(mech):
+    """(ptype, ct, kind, branch): the pose type, the pose-column kinds, the leg
+    kinds and branches of mech (the same for all its designs)."""
+    from .poses import twist_columns
+
     spec = mech.pose_spec
     ptype = _PTYPE[spec.type]
     if spec.jacobian == "angular_velocity" or ptype < 2:
         ct = np.array(twist_columns(spec), dtype=np.int64)
     else:
         ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
-    codes = (ptype, ct, np.ascontiguousarray(kind, dtype=np.int64), np.ascontiguousarray(C.branch, dtype=np.int64))
-    return codes, L, F, D
+    C = mech.constants
+    return (ptype, ct, np.ascontiguousarray(C.kind, dtype=np.int64), np.ascontiguousarray(C.branch, dtype=np.int64))
+
+
+def kernel_spec(codes):
+    """The kernel's compile-time choices (a KernelSpec) for pack's codes."""
+    from ._codegen import KernelSpec
+
+    ptype, ct, kind, _ = codes
+    return KernelSpec(tuple(ct), bool(np.any(kind != 2)), ptype != 0)
+
+
+def kernel_source(mech, title: str) -> str:
+    """The generated routines of the kernel for mech's shape as a module's source."""
+    from ._codegen import module_source
+
+    return module_source(kernel_spec(shape_codes(mech)), title)
 
 
 def frame_rows(mech, X, fixed):
@@ -150,9 +163,7 @@ def _run_kernel(K, mech, codes, L, F, X, want):
     frames are the same for all designs (a rotation pose's fixed angles do not
     vary), else per group of designs with their own frames."""
     ptype, ct, kind, branch = codes
-    n = len(kind)
-    nt = (0,) * n
-    cspec = K.column_spec(ct, np.any(kind != 2), ptype != 0)
+    nt, cspec = kernel_spec(codes).numba_args()
     N = X.shape[0]
     flags = (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
              bool(want[COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
@@ -203,8 +214,7 @@ def _mass_at(K, mech, codes, L, F, X, dd, jj):
         frs.append(np.concatenate([fr, np.zeros((nb * K.BLK - (b - a), fr.shape[1]))]))
         nbs.append(nb)
     bd = np.repeat(dd[starts].astype(np.int64), nbs)
-    Mp = K.mass_blocks((0,) * n, K.column_spec(ct, np.any(kind != 2), ptype != 0), ptype, ct, kind, branch, L, F,
-                       np.concatenate(frs), bd)
+    Mp = K.mass_blocks(*kernel_spec(codes).numba_args(), ptype, ct, kind, branch, L, F, np.concatenate(frs), bd)
     Mp = Mp.reshape(-1, n * n, K.BLK).transpose(0, 2, 1).reshape(-1, n, n)
     offs = np.cumsum([0] + nbs[:-1]) * K.BLK
     rows = np.concatenate([o + np.arange(b - a) for a, b, o in zip(starts, ends, offs)])

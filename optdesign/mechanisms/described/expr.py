@@ -27,12 +27,13 @@ expressions (the independent symbolic check).
 from __future__ import annotations
 
 import ast
-import difflib
 import math
 import sys
 from typing import Any, Mapping
 
 import numpy as np
+
+from ...checking import suggest
 
 __all__ = ["ExprError", "parse", "evaluate", "names_of", "first_problem", "to_text", "FUNCTIONS",
            "MAX_CHARS", "MAX_NODES", "MAX_DEPTH"]
@@ -119,8 +120,7 @@ def _convert(node, text: str, allowed: set, count: list, depth: int) -> tuple:
             return ("name", node.id)
         if node.id in FUNCTIONS:
             raise ExprError(f"function {node.id!r} used without arguments in {_show(text)}")
-        close = difflib.get_close_matches(node.id, sorted(allowed | set(CONSTANTS)), n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else (
+        hint = suggest(node.id, sorted(allowed | set(CONSTANTS))) or (
             f"; expected one of {', '.join(sorted(allowed))}" if allowed and len(allowed) <= 12 else "")
         raise ExprError(f"unknown name {node.id!r} in {_show(text)}{hint}")
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
@@ -138,8 +138,7 @@ def _convert(node, text: str, allowed: set, count: list, depth: int) -> tuple:
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
             fname = node.func.id if isinstance(node.func, ast.Name) else None
-            close = difflib.get_close_matches(fname, sorted(FUNCTIONS), n=1) if fname else []
-            hint = f"; did you mean {close[0]!r}?" if close else f"; expected one of {', '.join(sorted(FUNCTIONS))}"
+            hint = suggest(fname, sorted(FUNCTIONS)) or f"; expected one of {', '.join(sorted(FUNCTIONS))}"
             what = f"unknown function {fname!r}" if fname else "only plain function calls are allowed"
             raise ExprError(f"{what} in {_show(text)}{hint}")
         if node.keywords:

@@ -102,10 +102,23 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Actuator values (..., N, n_act) (m for prismatic and strut legs, rad for
         revolute ones); NaN where the pose is not reachable."""
-        return self.leg_state(X)["q"]
+        return self.state(X).q
 
     def reachable(self, X: np.ndarray) -> np.ndarray:
-        return self.leg_state(X)["reachable"]
+        return self.state(X).reachable
+
+    # the state at poses (:mod:`optdesign.mechanisms.state`): the legs' inverse kinematics once
+    def kinematic_core(self, X: np.ndarray) -> dict:
+        return self.leg_state(X)
+
+    def inverse_of(self, st) -> np.ndarray:
+        return st.core["q"]
+
+    def reachable_of(self, st) -> np.ndarray:
+        return st.core["reachable"]
+
+    def jacobian_of(self, st) -> np.ndarray:
+        return self._jac(st.core, self.pose_spec.jacobian)
 
     def _jac(self, st: dict, convention: str) -> np.ndarray:
         G = st["G"]
@@ -117,7 +130,7 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
     def jacobian(self, X: np.ndarray) -> np.ndarray:
         """J (..., N, n_act, dof) in the description's convention (``pose.jacobian``)."""
-        return self._jac(self.leg_state(X), self.pose_spec.jacobian)
+        return self.state(X).J
 
     def jacobian_rates(self, X: np.ndarray) -> np.ndarray:
         """dq/dx (..., N, n_act, dof): qdot = J xdot for the pose-coordinate rates."""
@@ -207,8 +220,7 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         """M = J^-T M_p (..., N, n_act, dof): actuator forces per unit pose
         acceleration (eq. 23 of the 3-P(4S) paper), the matrix of the dynamic index."""
         self._require_dynamics()
-        d = self._pose_dyn(self.leg_state(X), None, self.pose_spec.jacobian)
-        return _solve_T(d["J"], d["M"])
+        return self.state(X).matrices({"M"})["M"]
 
     def _forces(self, X, V, A=None, parts=("M", "c", "g")):
         self._require_dynamics()
@@ -271,8 +283,8 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         return T, potential_energy(self.constants, st)
 
     # ------------------------------------------------------------------ indices
-    def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
-        st = self.leg_state(X)
+    def index_matrices_of(self, state, needs: set[str]) -> dict[str, np.ndarray]:
+        st = state.core
         out: dict[str, np.ndarray] = {}
         conv = self.pose_spec.jacobian
         if "M" in needs:
@@ -291,6 +303,12 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         from .compiled import global_statistics
 
         return global_statistics(self, requests, X, want_max_cond)
+
+    def kernel_source(self, title: str) -> str:
+        """The generated routines of the compiled kernel for this shape (:mod:`._codegen`)."""
+        from .compiled import kernel_source
+
+        return kernel_source(self, title)
 
     def invalid_designs(self) -> np.ndarray:
         """(D,) or (): designs whose physical quantities are impossible (a

@@ -7,11 +7,11 @@ units and defaults are documented in ``docs/mechanisms-as-data.md``.
 """
 from __future__ import annotations
 
-import difflib
 import math
 import re
 from typing import Any, Mapping
 
+from ...checking import Checker, shorten, tname
 from .. import DescriptionError
 from .expr import CONSTANTS, FUNCTIONS, ExprError, parse
 from .spec import Description, LegSpec, ParamDecl, PlatformSpec, PoseSpec
@@ -54,50 +54,22 @@ _STRUT_PART = {"mass", "centre", "inertia"}
 
 
 # ---------------------------------------------------------------------- helpers
-def _fail(path: str, msg: str):
-    raise DescriptionError(path, msg)
+class _Checker(Checker):
+    """The package's one validation toolkit (optdesign.checking), raising DescriptionError."""
+
+    def fail(self, path: str, message: str):
+        raise DescriptionError(path, message)
 
 
-def _tname(v: Any) -> str:
-    if v is None:
-        return "nothing (null)"
-    if isinstance(v, bool):
-        return "a boolean"
-    if isinstance(v, (list, tuple)):
-        return f"a list of {len(v)} item{'s' if len(v) != 1 else ''}"
-    if isinstance(v, Mapping):
-        return "a mapping"
-    return {int: "an integer", float: "a number", str: "a string"}.get(type(v), type(v).__name__)
-
-
-def _mapping(v: Any, path: str) -> Mapping:
-    if not isinstance(v, Mapping):
-        _fail(path, f"expected a mapping, got {_tname(v)}")
-    for k in v:
-        if not isinstance(k, str):
-            _fail(path, f"expected string keys, got key {k!r}")
-    return v
-
-
-def _only(m: Mapping, path: str, allowed, what: str = "key") -> None:
-    for k in m:
-        if k not in allowed:
-            close = difflib.get_close_matches(k, sorted(allowed), n=1) if isinstance(k, str) else []
-            if not close and isinstance(k, str):
-                low = {a.lower(): a for a in allowed}
-                close = [low[k.lower()]] if k.lower() in low else []
-            hint = (f"; did you mean {close[0]!r}?" if close else "") + f"; expected one of {', '.join(sorted(allowed))}"
-            _fail(f"{path}.{k}", f"unknown {what}{hint}")
+_CHECK = _Checker()
+_fail = _CHECK.fail
+_mapping = _CHECK.mapping
+_only = _CHECK.only
+_number = _CHECK.number
 
 
 def _require(m: Mapping, key: str, path: str, why: str = "") -> Any:
-    if key not in m or m[key] is None:
-        if key not in m:   # a mistyped key that stands for it: name that one
-            for k in m:
-                if isinstance(k, str) and (k.lower() == key or difflib.get_close_matches(k, [key], n=1, cutoff=0.7)):
-                    _fail(f"{path}.{k}", f"unknown key; did you mean {key!r}? ({key!r} is required here)")
-        _fail(f"{path}.{key}", "missing required key" + (f" ({why})" if why else ""))
-    return m[key]
+    return _CHECK.require(m, key, path, why, null_is_missing=True)
 
 
 def _expr(v: Any, path: str, names) -> tuple:
@@ -109,20 +81,8 @@ def _expr(v: Any, path: str, names) -> tuple:
 
 def _vec(v: Any, path: str, names) -> tuple:
     if not isinstance(v, (list, tuple)) or len(v) != 3:
-        _fail(path, f"expected a list of 3 expressions [x, y, z], got {_tname(v)}")
+        _fail(path, f"expected a list of 3 expressions [x, y, z], got {tname(v)}")
     return tuple(_expr(c, f"{path}[{i}]", names) for i, c in enumerate(v))
-
-
-def _number(v: Any, path: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        _fail(path, f"expected a number, got {_tname(v)}")
-    try:
-        x = float(v)
-    except OverflowError:
-        _fail(path, "expected a number of sensible size")
-    if not math.isfinite(x) or abs(x) > 1e12:
-        _fail(path, f"expected a finite number of sensible size, got {v!r}")
-    return x
 
 
 _ZERO = ("num", 0.0)
@@ -144,14 +104,8 @@ def _params(raw: Any, path: str) -> tuple[ParamDecl, ...]:
             spec = {"kind": spec}
         spec = _mapping(spec, p)
         _only(spec, p, {"kind", "design", "default", "doc"})
-        kind = _require(spec, "kind", p)
-        if not isinstance(kind, str) or kind not in PARAM_KINDS:
-            close = difflib.get_close_matches(str(kind), sorted(PARAM_KINDS), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            _fail(f"{p}.kind", f"unknown parameter kind {kind!r}; expected one of {', '.join(PARAM_KINDS)}{hint}")
-        design = spec.get("design", PARAM_KINDS[kind])
-        if not isinstance(design, bool):
-            _fail(f"{p}.design", f"expected true or false, got {_tname(design)}")
+        kind = _CHECK.choice(_require(spec, "kind", p), f"{p}.kind", tuple(PARAM_KINDS), "parameter kind")
+        design = _CHECK.boolean(spec.get("design", PARAM_KINDS[kind]), f"{p}.design")
         default = spec.get("default")
         if default is not None:
             default = _number(default, f"{p}.default")
@@ -160,9 +114,7 @@ def _params(raw: Any, path: str) -> tuple[ParamDecl, ...]:
                 _fail(f"{p}.default", f"expected a {kind} >= 0 {unit}, got {default:g}")
         elif not design:
             _fail(f"{p}.default", "a fixed parameter (design: false) needs a default")
-        doc = spec.get("doc", "")
-        if not isinstance(doc, str):
-            _fail(f"{p}.doc", f"expected a string, got {_tname(doc)}")
+        doc = _CHECK.string(spec.get("doc", ""), f"{p}.doc")
         out.append(ParamDecl(name, kind, design, default, doc))
     return tuple(out)
 
@@ -171,11 +123,7 @@ def _params(raw: Any, path: str) -> tuple[ParamDecl, ...]:
 def _pose(raw: Any, path: str, names) -> PoseSpec:
     m = _mapping(raw, path)
     _only(m, path, _POSE)
-    ptype = _require(m, "type", path)
-    if not isinstance(ptype, str) or ptype not in POSE_TYPES:
-        close = difflib.get_close_matches(str(ptype), sorted(POSE_TYPES), n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        _fail(f"{path}.type", f"unknown pose type {ptype!r}; expected one of {', '.join(POSE_TYPES)}{hint}")
+    ptype = _CHECK.choice(_require(m, "type", path), f"{path}.type", tuple(POSE_TYPES), "pose type")
     roles = POSE_TYPES[ptype]
     fixed: dict = {}
     if "angles" in m:
@@ -183,7 +131,7 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
             _fail(f"{path}.angles", "only a rotation pose chooses its angles")
         ang = m["angles"]
         if not isinstance(ang, list) or not 1 <= len(ang) <= 3 or any(a not in roles for a in ang) or len(set(ang)) != len(ang):
-            _fail(f"{path}.angles", f"expected a list of 1 to 3 different angles among roll, pitch, yaw, got {ang!r}")
+            _fail(f"{path}.angles", f"expected a list of 1 to 3 different angles among roll, pitch, yaw, got {shorten(ang)}")
         roles = tuple(a for a in POSE_TYPES["rotation"] if a in ang)
     if "fixed" in m:
         if ptype != "rotation":
@@ -201,10 +149,10 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
         default_names = roles
     cn = m.get("coordinates", list(default_names))
     if not isinstance(cn, list) or len(cn) != len(roles):
-        _fail(f"{path}.coordinates", f"expected a list of {len(roles)} names ({', '.join(roles)} in this order), got {_tname(cn)}")
+        _fail(f"{path}.coordinates", f"expected a list of {len(roles)} names ({', '.join(roles)} in this order), got {tname(cn)}")
     for i, c in enumerate(cn):
         if not isinstance(c, str) or not _NAME.match(c):
-            _fail(f"{path}.coordinates[{i}]", f"expected a name of letters, digits and '_', got {c!r}")
+            _fail(f"{path}.coordinates[{i}]", f"expected a name of letters, digits and '_', got {shorten(c)}")
     if len(set(cn)) != len(cn):
         _fail(f"{path}.coordinates", "the coordinate names must differ")
     centre = _vec(m["centre"], f"{path}.centre", names) if m.get("centre") is not None else (_ZERO,) * 3
@@ -216,9 +164,7 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
         _only(hm, f"{path}.home", set(cn), what="pose coordinate")
         for k, v in hm.items():
             home[cn.index(k)] = _number(v, f"{path}.home.{k}")
-    jac = m.get("jacobian", "rates")
-    if jac not in ("rates", "angular_velocity"):
-        _fail(f"{path}.jacobian", f"expected rates or angular_velocity, got {jac!r}")
+    jac = _CHECK.string(m.get("jacobian", "rates"), f"{path}.jacobian", choices={"rates", "angular_velocity"})
     if jac == "angular_velocity" and len(set(roles) & {"roll", "pitch", "yaw"}) not in (0, 3) and ptype != "planar":
         _fail(f"{path}.jacobian", "angular_velocity needs all three angles as coordinates (else J is not square)")
     return PoseSpec(ptype, tuple(cn), roles, fixed, centre, tuple(home), jac)
@@ -243,7 +189,7 @@ def _platform(raw: Any, path: str, names) -> PlatformSpec:
             d = tuple(_expr(c, f"{p}[{i}]", names) for i, c in enumerate(v))
             inertia = ((d[0], _ZERO, _ZERO), (_ZERO, d[1], _ZERO), (_ZERO, _ZERO, d[2]))
         else:
-            _fail(p, f"expected [Ixx, Iyy, Izz] or a mapping of xx, yy, zz, xy, xz, yz (kg m^2), got {_tname(v)}")
+            _fail(p, f"expected [Ixx, Iyy, Izz] or a mapping of xx, yy, zz, xy, xz, yz (kg m^2), got {tname(v)}")
     com = _vec(m["centre_of_mass"], f"{path}.centre_of_mass", names) if m.get("centre_of_mass") is not None else (_ZERO,) * 3
     return PlatformSpec(mass, inertia, com)
 
@@ -255,12 +201,10 @@ def _turns(pat: Any, path: str, names) -> list[tuple[tuple, tuple]]:
         return [(_ZERO, _ZERO)]
     m = _mapping(pat, path)
     _only(m, path, _PATTERN)
-    unit = m.get("unit", "rad")
-    if unit not in ("rad", "deg"):
-        _fail(f"{path}.unit", f"expected rad or deg, got {unit!r}")
+    unit = _CHECK.string(m.get("unit", "rad"), f"{path}.unit", choices={"rad", "deg"})
     ang = _require(m, "angles", path)
     if not isinstance(ang, list) or not 1 <= len(ang) <= MAX_LEGS:
-        _fail(f"{path}.angles", f"expected a list of 1 to {MAX_LEGS} angles, got {_tname(ang)}")
+        _fail(f"{path}.angles", f"expected a list of 1 to {MAX_LEGS} angles, got {tname(ang)}")
     scale = ("num", math.pi / 180.0) if unit == "deg" else None
     angles = []
     for i, a in enumerate(ang):
@@ -294,11 +238,7 @@ def _bodies(m: Mapping, key: str, allowed: set, path: str, names, prefix: str) -
 
 def _leg_group(raw: Any, path: str, names, counters: dict, start: int) -> list[LegSpec]:
     m = _mapping(raw, path)
-    kind = _require(m, "kind", path)
-    if not isinstance(kind, str) or kind not in LEG_KINDS:
-        close = difflib.get_close_matches(str(kind), LEG_KINDS, n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        _fail(f"{path}.kind", f"unknown leg kind {kind!r}; expected one of {', '.join(LEG_KINDS)}{hint}")
+    kind = _CHECK.choice(_require(m, "kind", path), f"{path}.kind", LEG_KINDS, "leg kind")
     _only(m, path, _COMMON | _KIND_KEYS[kind])
     base = _vec(_require(m, "base", path), f"{path}.base", names)
     plat = _vec(_require(m, "platform", path), f"{path}.platform", names)
@@ -334,24 +274,23 @@ def _leg_group(raw: Any, path: str, names, counters: dict, start: int) -> list[L
             rod = _expr(r, f"{path}.rod", names)
     branch = None
     if kind in BRANCHES:
-        branch = m.get("branch", "minus" if kind == "prismatic" else "outer")
-        if branch not in BRANCHES[kind]:
-            _fail(f"{path}.branch", f"expected one of {', '.join(BRANCHES[kind])}, got {branch!r}")
+        branch = _CHECK.string(m.get("branch", "minus" if kind == "prismatic" else "outer"), f"{path}.branch",
+                               choices=set(BRANCHES[kind]))
     turns = _turns(m.get("pattern"), f"{path}.pattern", names)
     if "actuators" in m:
         acts = m["actuators"]
         if not isinstance(acts, list) or len(acts) != len(turns):
-            _fail(f"{path}.actuators", f"expected a list of {len(turns)} names (one per leg of the group), got {_tname(acts)}")
+            _fail(f"{path}.actuators", f"expected a list of {len(turns)} names (one per leg of the group), got {tname(acts)}")
         for i, a in enumerate(acts):
             if not isinstance(a, str) or not _NAME.match(a):
-                _fail(f"{path}.actuators[{i}]", f"expected a name of letters, digits and '_', got {a!r}")
+                _fail(f"{path}.actuators[{i}]", f"expected a name of letters, digits and '_', got {shorten(a)}")
         if "actuator" in m:
             _fail(f"{path}.actuator", "give either actuator (a prefix) or actuators (a list), not both")
         names_out = list(acts)
     else:
         prefix = m.get("actuator", "q")
         if not isinstance(prefix, str) or not _NAME.match(prefix):
-            _fail(f"{path}.actuator", f"expected a name prefix of letters, digits and '_', got {prefix!r}")
+            _fail(f"{path}.actuator", f"expected a name prefix of letters, digits and '_', got {shorten(prefix)}")
         names_out = []
         for _ in turns:
             counters[prefix] = counters.get(prefix, 0) + 1
@@ -370,7 +309,7 @@ def parse_description(raw: Any, path: str = "mechanism", label: str | None = Non
         name = re.sub(r"\W", "_", label or "")[:40].strip("_") or "described"
         name = name if _NAME.match(name) else "described"
     if not isinstance(name, str) or not _NAME.match(name):
-        _fail(f"{path}.name", f"expected a name of letters, digits and '_', got {name!r}")
+        _fail(f"{path}.name", f"expected a name of letters, digits and '_', got {shorten(name)}")
     params = _params(m.get("parameters"), f"{path}.parameters")
     names = [p.name for p in params]
     pose = _pose(_require(m, "pose", path), f"{path}.pose", names)
@@ -380,7 +319,7 @@ def parse_description(raw: Any, path: str = "mechanism", label: str | None = Non
     platform = _platform(m.get("platform"), f"{path}.platform", names)
     legs_raw = _require(m, "legs", path)
     if not isinstance(legs_raw, list) or not legs_raw:
-        _fail(f"{path}.legs", f"expected a list of leg groups, got {_tname(legs_raw)}")
+        _fail(f"{path}.legs", f"expected a list of leg groups, got {tname(legs_raw)}")
     legs: list[LegSpec] = []
     counters: dict = {}
     for i, g in enumerate(legs_raw):

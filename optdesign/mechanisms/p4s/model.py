@@ -146,13 +146,41 @@ class P4S(Mechanism):
     # bitwise the numpy model's, the forward kinematics equal to 1e-12 m.
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Strokes (eq. 5) for platform positions X (..., N, 3); NaN where unreachable."""
-        Q = compiled.inverse(self, X)
-        return self.branch_state(X)["q"] if Q is None else Q
+        return self.state(X).q
 
     def reachable(self, X: np.ndarray) -> np.ndarray:
         """Boolean mask (..., N): every branch has a real inverse-kinematics root."""
-        Q = compiled.inverse(self, X)
-        return self.branch_state(X)["reachable"] if Q is None else ~np.isnan(Q[..., 0])
+        return self.state(X).reachable
+
+    # the state at poses (:mod:`optdesign.mechanisms.state`): the branch state
+    # once, the compiled inverse kinematics and Jacobian where they apply
+    def kinematic_core(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        return self.branch_state(X)
+
+    def inverse_of(self, st) -> np.ndarray:
+        Q = compiled.inverse(self, st.X)
+        st.notes["q_compiled"] = Q is not None
+        return st.core["q"] if Q is None else Q
+
+    def reachable_of(self, st) -> np.ndarray:
+        Q = st.q
+        return ~np.isnan(Q[..., 0]) if st.notes["q_compiled"] else st.core["reachable"]
+
+    def jacobian_of(self, st) -> np.ndarray:
+        J = compiled.jacobian(self, st.X)
+        if J is not None:
+            return J
+        c = st.core
+        return c["n"] / c["s"][..., None]
+
+    def index_matrices_of(self, st, needs: set[str]) -> dict[str, np.ndarray]:
+        out: dict[str, np.ndarray] = {}
+        if "J" in needs:
+            out["J"] = st.J
+        if "M" in needs:
+            c = st.core
+            out["M"] = solve_T(c["n"] / c["s"][..., None], platform_mass(self, c))
+        return out
 
     def forward(self, Q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Closed-form forward kinematics: the platform centre p for strokes Q (..., N, 3).
@@ -209,11 +237,7 @@ class P4S(Mechanism):
 
     def jacobian(self, X: np.ndarray) -> np.ndarray:
         """J (..., N, 3, 3) with qdot = J v: rows n_i^T / (n_i^T m_i) (eq. 8)."""
-        J = compiled.jacobian(self, X)
-        if J is not None:
-            return J
-        st = self.branch_state(X)
-        return st["n"] / st["s"][..., None]
+        return self.state(X).J
 
     def global_statistics(self, requests, X):
         """The fused compiled kernel's global indices (see :func:`.compiled.global_statistics`)."""
@@ -271,10 +295,7 @@ class P4S(Mechanism):
     def mass_matrix(self, X: np.ndarray) -> np.ndarray:
         """The M of eq. (23): actuator forces per unit platform acceleration,
         ``M = J^-T M_p`` (..., N, 3, 3), so that tau = M a + velocity + gravity terms."""
-        st = self.branch_state(X)
-        Mp = platform_mass(self, st)
-        J = st["n"] / st["s"][..., None]
-        return solve_T(J, Mp)
+        return self.state(X).matrices({"M"})["M"]
 
     def velocity_term(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Actuator forces from velocity products (the V^T N V of eq. 23), (..., N, 3)."""
