@@ -11,8 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .formulas import (cond_2_of, cond_fro_of, finite_stack, full_rank, sigma_max_of, sigma_min_of,
-                       singular_values)
+from .formulas import (
+    cond_2_of,
+    cond_fro_of,
+    finite_stack,
+    full_rank,
+    sigma_max_of,
+    sigma_min_of,
+    singular_values,
+)
 
 __all__ = ["finite_stack", "singular_values", "sigma_max", "sigma_min", "cond_2", "cond_fro",
            "sigma_max_of", "sigma_min_of", "cond_2_of", "cond_fro_of", "full_rank"]
