@@ -38,7 +38,9 @@ def kernel_module(rev: str, name: str = "_p4s_kernels", directory: str | None = 
     if src is None:
         return None
     src = (src.replace("from ...fast.", "from optdesign.fast.")
+           .replace("from ...formulas import", "from optdesign.formulas import")
            .replace("from .model import", "from optdesign.mechanisms.p4s.model import")
+           .replace("from .geometry import", "from optdesign.mechanisms.p4s.geometry import")
            .replace("from ..", "from optdesign.")
            .replace("from . import", "from optdesign.fast import")
            .replace("from ._", "from optdesign.fast._"))

@@ -5,7 +5,9 @@ local value that cannot be computed (a singular or unreachable pose) is ``inf``
 for indices to be minimized and ``0`` for indices to be maximized, never a
 silent NaN: a design whose workspace meets a singularity then scores worst.
 
-Index kinds (the names a config uses):
+Index kinds (the names a config uses); each local value is a row of the
+table :data:`optdesign.formulas.VALUES` (its numpy formula, shared with the
+compiled paths' LAPACK hand-off and the gradients):
 
 ==============  =======  ==============================================================
 kind            sense    local value
@@ -32,6 +34,7 @@ from typing import Callable
 
 import numpy as np
 
+from .formulas import Operands, select
 from .linalg import (cond_2, cond_2_of, cond_fro, cond_fro_of, finite_stack, sigma_max, sigma_max_of,  # noqa: F401
                      sigma_min, sigma_min_of, singular_values)
 
@@ -56,46 +59,17 @@ class IndexKind:
     options: tuple[str, ...] = ()
 
 
-def _dynamic(M, J, convention, options):
-    return sigma_max(M)
+def _local(kind):
+    """func(M, J, convention, options) of an index kind: its row of the table
+    optdesign.formulas.VALUES, with the factor and column its options give."""
+    def func(M, J, convention, options):
+        row, c, a = select(kind, convention, options, None if J is None else J.shape[-1])
+        return row.value(Operands(J=J, M=M), c, a)
+    return func
 
 
-def _stiffness(M, J, convention, options):
-    k = options.get("k", 1.0)
-    s = sigma_min(J)
-    if convention == "lambda_min_K":
-        return k * s * s
-    return np.sqrt(k) * s
-
-
-def _isotropy(M, J, convention, options):
-    return cond_fro(J) if convention == "frobenius" else cond_2(J)
-
-
-def _dexterity(M, J, convention, options):
-    c = cond_fro(J)
-    n = J.shape[-1] if convention == "normalized" else 1.0
-    with np.errstate(divide="ignore"):
-        return np.where(np.isfinite(c), n / c, 0.0)
-
-
-def _manip(M, J, convention, options):
-    Jc, good = finite_stack(J)
-    det = np.linalg.det(Jc @ np.swapaxes(Jc, -1, -2))
-    return np.where(good, np.sqrt(np.maximum(det, 0.0)), 0.0)
-
-
-def _driving(M, J, convention, options):
-    Jc, good = finite_stack(J)
-    det = np.linalg.det(np.swapaxes(Jc, -1, -2) @ Jc)
-    return np.where(good, np.sqrt(np.maximum(det, 0.0)), 0.0)
-
-
-def _axis_stiffness(M, J, convention, options):
-    k = options.get("k", 1.0)
-    a = int(options.get("axis", 0))
-    Jc, good = finite_stack(J)
-    return np.where(good, k * np.sum(Jc[..., :, a] ** 2, axis=-1), 0.0)
+_dynamic, _stiffness, _isotropy, _dexterity, _manip, _driving, _axis_stiffness = (
+    _local(k) for k in ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving", "axis_stiffness"))
 
 
 INDEX_KINDS: dict[str, IndexKind] = {

@@ -71,28 +71,31 @@ from ._layout import (BA, BLK, BS, BW, CHUNK, COL0, CT_ROLL, DET, DYN, FCEN, FCO
 from ._layout import CT_PITCH, FFIX, FR_ROWS, NEWTON, NEWTON_DYN, NF, NL, TAU, VF2, VS, VX  # noqa: F401
 
 #: numba's cache of these kernels watches this file only, while the code of
-#: _codegen.py and the numbers of _layout.py are compiled into them: this
+#: _codegen.py and the numbers of _layout.py (and its ids from
+#: optdesign/formulas.py) are compiled into them: this
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_kernel_generators.py checks it); until then the kernels
 #: compile without the cache (a warning says so), never from a stale one
-GENERATOR_DIGEST = "ad6edd6efd58f955"
+GENERATOR_DIGEST = "d2316951ebdc691a"
 
 
 def generator_digest() -> str:
-    """sha256 (first 16 hex digits) of _codegen.py and _layout.py as they are now."""
+    """sha256 (first 16 hex digits) of _codegen.py, _layout.py and the table of
+    value ids optdesign/formulas.py as they are now."""
     import hashlib
     from pathlib import Path
 
     h = hashlib.sha256()
-    for name in ("_codegen.py", "_layout.py"):
-        h.update(Path(__file__).with_name(name).read_bytes())
+    for path in (Path(__file__).with_name("_codegen.py"), Path(__file__).with_name("_layout.py"),
+                 Path(__file__).parents[2] / "formulas.py"):
+        h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
 
 if generator_digest() != GENERATOR_DIGEST:
     import warnings
 
-    warnings.warn(f"{__name__}: _codegen.py or _layout.py changed (digest {generator_digest()}, recorded "
+    warnings.warn(f"{__name__}: _codegen.py, _layout.py or formulas.py changed (digest {generator_digest()}, recorded "
                   f"{GENERATOR_DIGEST}): the kernels compile without numba's cache until GENERATOR_DIGEST is updated",
                   RuntimeWarning, stacklevel=1)
     _NJIT = {**_NJIT, "cache": False}

@@ -3,10 +3,13 @@ and the constants its generated code (:mod:`._codegen`) is written with: plain
 numbers, no numba, so that the generators can be read, run and tested alone.
 
 numba freezes these values into the cached kernels, whose cache only watches
-``_kernels.py``: that file records a digest of this one and of ``_codegen.py``
+``_kernels.py``: that file records a digest of this one, of ``_codegen.py``
+and of ``optdesign/formulas.py`` (whose value ids are imported here)
 (``_kernels.GENERATOR_DIGEST``), which changes with them.
 """
 from __future__ import annotations
+
+from ...formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # noqa: F401 (the value ids)
 
 #: points per task: the unit of the reductions and of parallel work
 CHUNK = 256
@@ -14,10 +17,9 @@ CHUNK = 256
 BLK = 64
 #: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the numpy path)
 HARD = 1000.0
-#: local values (rows of the kernel's output)
-DYN, SMIN2, SMIN, FRO, TWO, DET, IFRO = 0, 1, 2, 3, 4, 5, 6
-COL0 = 7            # COL0 + a: squared norm of column a of J (axis stiffness)
-NVAL = 13
+#: local values (rows of the kernel's output): DYN, SMIN2, SMIN, FRO, TWO, DET,
+#: IFRO, COL0 + a (squared norm of column a of J: axis stiffness), NVAL, the ids
+#: of the table of local values optdesign.formulas (imported above)
 #: layout of the per-leg constants L (D, n, NL)
 LA, LP, LU, LR0, LS0 = 0, 3, 6, 9, 12
 LLA, LLR, LMACT, LMROD, LIROD, LFROD, LM1, LE1, LM2, LE2, LI12, LSG = range(15, 27)

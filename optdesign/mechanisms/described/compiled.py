@@ -20,13 +20,11 @@ cond_2(J) over the reachable points, (D,).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ...fast import KernelModule, enabled
 from ...fast.merge import add_points
-from ...linalg import cond_2_of, cond_fro_of, finite_stack, sigma_max_of, sigma_min_of, singular_values
+from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, kernel_value, select, singular_values
 from ..base import IndexRequest
 
 __all__ = ["IndexRequest", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
@@ -41,41 +39,13 @@ def kernels():
 
 def plan(requests, dof: int, has_dynamics: bool):
     """[(name, kernel value, factor)] for the requests the kernel computes (the
-    others are left to the numpy path)."""
-    from . import _kernels as K
-
+    others are left to the numpy path): the ids and factors of
+    optdesign.formulas.kernel_value."""
     out = []
     for r in requests:
-        opts = dict(r.options or ())
-        k = opts.pop("k", 1.0)
-        try:
-            k = float(k)
-        except (TypeError, ValueError):
-            continue
-        if not (math.isfinite(k) and k > 0):
-            continue
-        if r.kind == "axis_stiffness":
-            a = opts.pop("axis", 0)
-            try:
-                ok = float(a).is_integer() and 0 <= int(a) < dof
-            except (TypeError, ValueError):
-                ok = False
-            if not opts and ok:
-                out.append((r.name, K.COL0 + int(a), k))
-            continue
-        if opts:
-            continue
-        conv = r.convention
-        if r.kind == "dynamic" and has_dynamics:
-            out.append((r.name, K.DYN, 1.0))
-        elif r.kind == "stiffness":
-            out.append((r.name, K.SMIN2, k) if conv in (None, "lambda_min_K") else (r.name, K.SMIN, math.sqrt(k)))
-        elif r.kind == "isotropy":
-            out.append((r.name, K.FRO if conv in (None, "frobenius") else K.TWO, 1.0))
-        elif r.kind == "dexterity":
-            out.append((r.name, K.IFRO, float(dof) if conv == "normalized" else 1.0))
-        elif r.kind in ("manipulability", "driving"):
-            out.append((r.name, K.DET, 1.0))
+        kv = kernel_value(r.kind, r.convention, r.options, dof)
+        if kv is not None and (kv[0] != DYN or has_dynamics):
+            out.append((r.name,) + kv)
     return out
 
 
@@ -195,8 +165,8 @@ def _run_kernel(K, mech, codes, L, F, X, want):
     ptype, ct, kind, branch = codes
     nt, cspec = kernel_spec(codes).numba_args()
     N = X.shape[0]
-    flags = (bool(want[K.DYN]), bool(want[K.SMIN] or want[K.SMIN2] or want[K.TWO]), bool(want[K.TWO]),
-             bool(want[K.COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+    flags = (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
+             bool(want[COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
     args = (nt, cspec, ptype, ct, kind, branch)
     import numba
 
@@ -221,27 +191,12 @@ def _run_kernel(K, mech, codes, L, F, X, want):
 
 
 def _local_numpy(kind, conv, opts, J, svJ, svM):
-    """The numpy path's local value of one index (optdesign.indices' formulas,
-    from the same optdesign.linalg functions, so the values are the same);
-    svJ, svM: singular_values(J), singular_values(M) computed once."""
-    k = float(opts.get("k", 1.0))
-    if kind == "dynamic":
-        return sigma_max_of(*svM)
-    if kind == "stiffness":
-        s = sigma_min_of(*svJ)
-        return k * s * s if conv in (None, "lambda_min_K") else np.sqrt(k) * s
-    if kind == "isotropy":
-        return cond_fro_of(*svJ, J.shape) if conv in (None, "frobenius") else cond_2_of(*svJ, J.shape)
-    if kind == "dexterity":
-        c = cond_fro_of(*svJ, J.shape)
-        n = J.shape[-1] if conv == "normalized" else 1.0
-        return np.where(np.isfinite(c), n / c, 0.0)
-    Jc, good = finite_stack(J)
-    if kind in ("manipulability", "driving"):
-        P = Jc @ np.swapaxes(Jc, -1, -2) if kind == "manipulability" else np.swapaxes(Jc, -1, -2) @ Jc
-        return np.where(good, np.sqrt(np.maximum(np.linalg.det(P), 0.0)), 0.0)
-    a = int(opts.get("axis", 0))
-    return np.where(good, k * np.sum(Jc[..., :, a] ** 2, axis=-1), 0.0)
+    """The numpy path's local value of one index (its row of the table
+    optdesign.formulas.VALUES, as optdesign.indices computes it, so the values
+    are the same); svJ, svM: singular_values(J), singular_values(M) computed once."""
+    opts = {**opts, "k": float(opts.get("k", 1.0))}
+    row, c, a = select(kind, conv, opts, J.shape[-1])
+    return row.value(Operands(J=J, svJ=svJ, svM=svM), c, a)
 
 
 def _mass_at(K, mech, codes, L, F, X, dd, jj):
@@ -347,8 +302,8 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
         codes, L, F, D = pack(mech)
     except ValueError:
         return None
-    rows = sorted({v for _, v, _ in pl} | ({K.TWO} if want_max_cond else set()))
-    want = np.zeros(K.NVAL, dtype=np.bool_)
+    rows = sorted({v for _, v, _ in pl} | ({TWO} if want_max_cond else set()))
+    want = np.zeros(NVAL, dtype=np.bool_)
     want[rows] = True
     res = _run_kernel(K, mech, codes, L, F, X, want)
     if res is None:
@@ -356,7 +311,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     stats, counts, cd = res
     # per request: the kernel's sums scaled by the request's factor (factors are positive)
     names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
-    scales = [(v, fac) for _, v, fac in pl] + ([(K.TWO, 1.0)] if want_max_cond else [])
+    scales = [(v, fac) for _, v, fac in pl] + ([(TWO, 1.0)] if want_max_cond else [])
     st = np.stack([stats[:, v, :] * np.array([fac, fac, fac, fac * fac]) for v, fac in scales], axis=1)
     dd, jj = np.nonzero(cd == 2)
     if len(dd):
@@ -384,6 +339,6 @@ def reach_codes(mech, X) -> np.ndarray:
     """The kernel's reach codes (D, N): 0 unreachable, 1 reachable, 2 left to the numpy path."""
     K = kernels()
     codes, L, F, D = pack(mech)
-    want = np.zeros(K.NVAL, dtype=np.bool_)
-    want[K.FRO] = True
+    want = np.zeros(NVAL, dtype=np.bool_)
+    want[FRO] = True
     return _run_kernel(K, mech, codes, L, F, np.asarray(X, dtype=float), want)[2]

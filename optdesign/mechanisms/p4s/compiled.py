@@ -36,7 +36,7 @@ import numpy as np
 
 from ...fast import KernelModule, enabled
 from ...fast.merge import add_points
-from ...linalg import cond_2_of, cond_fro_of, sigma_max_of, sigma_min_of, singular_values
+from ...formulas import DYN, FRO, SMIN, SMIN2, TWO, VALUES, Operands, kernel_value, singular_values
 from .dynamics import mass_coefficients, platform_mass, solve_T
 
 __all__ = ["LOCAL", "FK", "IK", "VALUE_NAMES", "SUPPORTED", "design_constants", "p4s_local", "p4s_summary",
@@ -52,7 +52,11 @@ SUPPORTED = {
     "stiffness": (None, "lambda_min_K", "sqrt_lambda_min_K"),
     "isotropy": (None, "frobenius", "two_norm"),
 }
-VALUE_NAMES = ("dynamic", "sigma_min_sq", "sigma_min", "cond_fro", "cond_2")
+#: the ids of optdesign.formulas the fused kernel computes: its value rows 0..4
+IDS = (DYN, SMIN2, SMIN, FRO, TWO)
+assert IDS == tuple(range(len(IDS)))
+#: their names (the keys of p4s_local's values)
+VALUE_NAMES = tuple(next(v.name for v in VALUES.values() if v.id == i) for i in IDS)
 
 
 # ---------------------------------------------------------------------- inputs
@@ -112,22 +116,18 @@ def _lapack_values(mech, X, dd, jj, want) -> np.ndarray:
     with np.errstate(all="ignore"):
         # the numpy model's own operations, with the branch state computed once
         # and one SVD call for the stack [J; M] (each matrix's singular values
-        # do not depend on the stack it is in)
+        # do not depend on the stack it is in); the values: the rows of
+        # optdesign.formulas.VALUES with c = 1 (k = 1)
         st = m.branch_state(Xk)
         J = st["n"] / st["s"][..., None]
-        if want[0]:
+        if want[DYN]:
             sv, good = singular_values(np.concatenate([J, solve_T(J, platform_mass(m, st))]))
-            sJ, gJ, sM, gM = sv[:K], good[:K], sv[K:], good[K:]
-            out[0] = sigma_max_of(sM, gM)
+            ops = Operands(J=J, svJ=(sv[:K], good[:K]), svM=(sv[K:], good[K:]))
         else:
-            sJ, gJ = singular_values(J)
-        if want[1] or want[2]:
-            out[2] = sigma_min_of(sJ, gJ)   # the numpy path's sqrt(k) s with k = 1 (exactly s)
-            out[1] = out[2] * out[2]        # and its k * s * s
-        if want[3]:
-            out[3] = cond_fro_of(sJ, gJ, J.shape)
-        if want[4]:
-            out[4] = cond_2_of(sJ, gJ, J.shape)
+            ops = Operands(J=J)
+        for i in IDS:
+            if want[i]:
+                out[i] = VALUES[VALUE_NAMES[i]].value(ops, 1.0, 0)
     return out
 
 
@@ -187,31 +187,15 @@ def p4s_summary(mech, X, want=(True, True, True, True, True)):
 
 def plan(requests):
     """[(name, kernel row, factor)] for the requested indices the kernel
-    computes (the others are left out: the caller computes them with the numpy path)."""
+    computes (the others are left out: the caller computes them with the numpy
+    path): the ids and factors of optdesign.formulas.kernel_value."""
     out = []
     for req in requests:
-        conv = req.convention
-        if req.kind not in SUPPORTED or conv not in SUPPORTED[req.kind]:
+        if req.kind not in SUPPORTED or req.convention not in SUPPORTED[req.kind]:
             continue
-        opts = req.option_dict()
-        kval = opts.pop("k", 1.0)
-        if opts:
-            continue
-        try:
-            kval = float(kval)
-        except (TypeError, ValueError):
-            continue
-        if not (math.isfinite(kval) and kval > 0.0):
-            continue
-        if req.kind == "dynamic":
-            out.append((req.name, 0, 1.0))
-        elif req.kind == "stiffness":
-            if conv in (None, "lambda_min_K"):
-                out.append((req.name, 1, kval))
-            else:
-                out.append((req.name, 2, math.sqrt(kval)))
-        else:
-            out.append((req.name, 3 if conv in (None, "frobenius") else 4, 1.0))
+        kv = kernel_value(req.kind, req.convention, req.options, 3)
+        if kv is not None and kv[0] in IDS:
+            out.append((req.name,) + kv)
     return out
 
 

@@ -43,13 +43,14 @@ from numba import njit, prange
 from ...fast._jit import NJIT as _NJIT
 from ...fast._jit import chunk_moments, dot3_dd, lambda_max_psd
 from ...fast._jit import minor_dd as _cross_dd
+from ...formulas import DYN, FRO, SMIN, SMIN2, TWO
 from .geometry import E as _E
 
 #: points per task: the unit of parallel work and of the partial reductions
 CHUNK = 512
-#: local values the kernels can produce (rows of the output)
-DYN, STIFF2, STIFF1, FRO, TWO = 0, 1, 2, 3, 4
-NVAL = 5
+#: local values the kernels can produce (rows of the output: their ids in
+#: optdesign.formulas, the table's first five)
+NVAL = TWO + 1
 
 # e_i components (the numpy constants, so that w_i is bitwise the numpy one)
 E00, E01, E02 = float(_E[0, 0]), float(_E[0, 1]), float(_E[0, 2])
@@ -257,10 +258,10 @@ def _load_chunk(X, lo, hi, inb):
 @njit(inline="always", **_NJIT)
 def _chunk_body(P, d, inb, n, want_two, buf):
     """Local values of design d at the n points of inb (rows x, y, z of CHUNK,
-    see _load_chunk) into the flat buffer buf (6 CHUNK): rows (reach code
-    0/1/2 as a float, dynamic, sigma_min^2, sigma_min, cond_F, cond_2) of CHUNK
-    each.  One write array at constant row offsets and no calls in the loop:
-    LLVM vectorizes it.  The loop reads slices indexed from 0 (no wraparound
+    see _load_chunk) into the flat buffer buf (6 CHUNK): rows of CHUNK each,
+    the reach code 0/1/2 as a float, then value id v (dynamic, sigma_min^2,
+    sigma_min, cond_F, cond_2) in row 1 + v.  One write array at constant row
+    offsets and no calls in the loop: LLVM vectorizes it.  The loop reads slices indexed from 0 (no wraparound
     select on a negative index, which made LLVM load the inputs with gathers).
     want_two must be a constant (see _chunk)."""
     off = P[d, 0]
@@ -285,11 +286,11 @@ def _chunk_body(P, d, inb, n, want_two, buf):
         r, a, b, c, e, f = _point(xa[j], ya[j], za[j], off, iL, Lsq, c0, alpha, beta,
                                   m00, m01, m02, m10, m11, m12, m20, m21, m22, True, want_two)
         buf[j] = r
-        buf[CHUNK + j] = a
-        buf[2 * CHUNK + j] = b
-        buf[3 * CHUNK + j] = c
-        buf[4 * CHUNK + j] = e
-        buf[5 * CHUNK + j] = f
+        buf[(1 + DYN) * CHUNK + j] = a
+        buf[(1 + SMIN2) * CHUNK + j] = b
+        buf[(1 + SMIN) * CHUNK + j] = c
+        buf[(1 + FRO) * CHUNK + j] = e
+        buf[(1 + TWO) * CHUNK + j] = f
 
 
 @njit(**_NJIT)
