@@ -27,7 +27,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 300.0) -> None:
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         if proc.poll() is not None:
@@ -60,10 +60,11 @@ def cluster(tmp_path):
         _wait_port(port, procs["scheduler"])
         for i in (1, 2):
             start(f"worker{i}", ["worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                                 "--host", "127.0.0.1", "--death-timeout", "60",
+                                 "--host", "127.0.0.1", "--death-timeout", "300",
                                  "--local-directory", str(tmp_path / f"w{i}")])
-        client = connect_dask(address, timeout=60)
-        client.wait_for_workers(2, timeout=60)
+        # generous bounds: only a cluster that never comes up fails here (a busy machine starts slowly)
+        client = connect_dask(address, timeout=300)
+        client.wait_for_workers(2, timeout=300)
         client.close()
         yield address, procs
     finally:
