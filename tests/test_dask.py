@@ -256,7 +256,7 @@ def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
             os.killpg(proc.pid, 0)
         except ProcessLookupError:
             break
-        assert time.monotonic() - t0 < 20, "a process of the batch's group is left"
+        assert time.monotonic() - t0 < 120, "a process of the batch's group is left"   # one left stays for good
         time.sleep(0.1)
     for name, p in procs.items():      # the workers would finish the run they hold: no need to wait
         if name.startswith("worker"):
