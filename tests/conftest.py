@@ -1,6 +1,6 @@
 """Shared test inputs: the paths of the configs, the paper's config (parsed and
 as a raw mapping), edited copies of YAML files, and one small batch run
-twice (``--jobs 1`` and ``--jobs 2``) for the batch tests.
+(``--jobs 1``, and again with ``--jobs 2``) for the batch tests.
 
 Test modules import the plain names (``from conftest import DATA``) where
 they need them at import time, and take the fixtures otherwise.
@@ -88,13 +88,23 @@ def write_yaml(tmp_path):
 
 
 @pytest.fixture(scope="session")
-def small_batches(tmp_path_factory):
-    """The same two tasks of ``batch_small.yaml`` (seeds 1 and 2) run with
-    --jobs 1 and with --jobs 2: (tasks, root, rows of jobs1, rows of jobs2)."""
+def small_batch(tmp_path_factory):
+    """The two tasks of ``batch_small.yaml`` (seeds 1 and 2) run with --jobs 1
+    into ``root / "jobs1"``: (tasks, root, rows)."""
     from optdesign.batch import plan, run_batch
 
     root = tmp_path_factory.mktemp("batches")
     tasks = plan([str(BATCH_SMALL)], 2)
     rows1 = run_batch(tasks, str(root / "jobs1"), jobs=1)
+    return tasks, root, rows1
+
+
+@pytest.fixture(scope="session")
+def small_batches(small_batch):
+    """``small_batch`` and the same tasks run again with --jobs 2 into
+    ``root / "jobs2"``: (tasks, root, rows of jobs1, rows of jobs2)."""
+    from optdesign.batch import run_batch
+
+    tasks, root, rows1 = small_batch
     rows2 = run_batch(tasks, str(root / "jobs2"), jobs=2)
     return tasks, root, rows1, rows2

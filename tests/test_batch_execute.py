@@ -40,8 +40,8 @@ def test_same_seed_same_result_whatever_jobs(small_batches):
         assert _stage_files(root / "jobs1" / t.folder_name) == _stage_files(root / "jobs2" / t.folder_name)
 
 
-def test_rerun_skips_finished_runs(small_batches, capsys):
-    tasks, root, rows1, _ = small_batches
+def test_rerun_skips_finished_runs(small_batch, capsys):
+    tasks, root, rows1 = small_batch
     out = root / "jobs1"
     stamps = {t.key: (out / t.folder_name / "results.json").stat().st_mtime_ns for t in tasks}
     rows = run_batch(tasks, str(out), jobs=1)
@@ -58,8 +58,8 @@ def test_rerun_skips_finished_runs(small_batches, capsys):
     assert len(plan([str(SMALL), str(SMALL)], seeds=[1, 1, 2])) == 2
 
 
-def test_interrupted_runs_resumed_by_rerun(small_batches, tmp_path):
-    tasks, root, rows1, _ = small_batches
+def test_interrupted_runs_resumed_by_rerun(small_batch, tmp_path):
+    tasks, root, rows1 = small_batch
     out = tmp_path / "runs"
     for t, stop in zip(tasks, (13, 27)):
         folder = RunFolder.create(out, t.folder_name, t.config_text, t.seed, t.key, exact=True)

@@ -23,8 +23,8 @@ from optdesign.runs import RunFolder
 from conftest import BATCH_SMALL as SMALL
 
 
-def test_summary_statistics_match_the_rows(small_batches, tmp_path):
-    tasks, root, rows1, _ = small_batches
+def test_summary_statistics_match_the_rows(small_batch, tmp_path):
+    tasks, root, rows1 = small_batch
     # an interrupted third run shows up in the table but not in the statistics
     out = tmp_path / "runs"
     shutil.copytree(root / "jobs1", out)
@@ -89,8 +89,8 @@ def test_seeds_are_ranked_on_the_extremes_pooled_over_the_design_space(tmp_path,
     scores 0 on its own scale is not made the best by it."""
     from optdesign.report.summary import pooled_rows
 
-    poor = _space_config("poor", "{population: 4, generations: 1, prescan: 0, polish: 0, seed: 1}")
-    good = _space_config("good", "{population: 8, generations: 3, seed: 1}")
+    poor = _space_config("poor", "{worst_case: false, population: 4, generations: 1, prescan: 0, polish: 0, seed: 1}")
+    good = _space_config("good", "{worst_case: false, population: 8, generations: 3, seed: 1}")
     out = tmp_path / "runs"
     for name, text, seeds in (("poor", poor, (1, 2, 3)), ("good", good, (1,))):
         for s in seeds:

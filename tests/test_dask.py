@@ -27,7 +27,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 300.0) -> None:
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         if proc.poll() is not None:
@@ -60,10 +60,11 @@ def cluster(tmp_path):
         _wait_port(port, procs["scheduler"])
         for i in (1, 2):
             start(f"worker{i}", ["worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                                 "--host", "127.0.0.1", "--death-timeout", "60",
+                                 "--host", "127.0.0.1", "--death-timeout", "300",
                                  "--local-directory", str(tmp_path / f"w{i}")])
-        client = connect_dask(address, timeout=60)
-        client.wait_for_workers(2, timeout=60)
+        # generous bounds: only a cluster that never comes up fails here (a busy machine starts slowly)
+        client = connect_dask(address, timeout=300)
+        client.wait_for_workers(2, timeout=300)
         client.close()
         yield address, procs
     finally:
@@ -171,6 +172,8 @@ class _Listener:
         self.sock.listen(16)
         self.port = self.sock.getsockname()[1]
         self.mode, self.conns = mode, []
+        #: time.monotonic() of the first connection (the client's first contact, after its start-up)
+        self.first: float | None = None
         threading.Thread(target=self._serve, daemon=True).start()
 
     def _serve(self):
@@ -179,6 +182,8 @@ class _Listener:
                 c, _ = self.sock.accept()
             except OSError:
                 return
+            if self.first is None:
+                self.first = time.monotonic()
             self.conns.append(c)
             if self.mode == "garbage":
                 try:
@@ -199,19 +204,23 @@ def test_a_listener_that_is_not_a_scheduler(tmp_path, mode):
     listener = _Listener("silent" if mode == "silent" else "garbage")
     scheme = "tls" if mode.startswith("tls") else "tcp"
     try:
-        t0 = time.monotonic()
         r = subprocess.run([sys.executable, "-m", "optdesign.cli", "batch", str(BATCH_SMALL), "--out",
                             str(tmp_path / "runs"), "--backend", "dask", "--scheduler",
                             f"{scheme}://127.0.0.1:{listener.port}", "--timeout", "2"],
-                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                           capture_output=True, text=True, timeout=300, cwd=tmp_path,
                            env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])})
-        elapsed = time.monotonic() - t0
+        done = time.monotonic()
     finally:
         listener.close()
     assert r.returncode == 2, r.stderr
     assert r.stderr.count("\n") == 1 and r.stderr.startswith("optdesign: error: "), r.stderr
     assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr
-    assert elapsed < 2 + 30, elapsed            # the timeout, plus the interpreter's start-up on a busy machine
+    # counted from the client's first contact (not from its start-up, which a busy machine stretches):
+    # the 2 s of --timeout and the exit, well below dask's own connect timeout of 30 s (tls without
+    # certificates is refused before any contact)
+    assert (listener.first is None) == (scheme == "tls"), listener.first
+    if listener.first is not None:
+        assert done - listener.first < 20, done - listener.first
     assert not (tmp_path / "runs").exists()
 
 
@@ -247,7 +256,7 @@ def test_sigterm_to_a_dask_batch(cluster, tmp_path, edited_copy):
             os.killpg(proc.pid, 0)
         except ProcessLookupError:
             break
-        assert time.monotonic() - t0 < 20, "a process of the batch's group is left"
+        assert time.monotonic() - t0 < 120, "a process of the batch's group is left"   # one left stays for good
         time.sleep(0.1)
     for name, p in procs.items():      # the workers would finish the run they hold: no need to wait
         if name.startswith("worker"):

@@ -20,6 +20,7 @@ def _tiny(tmp_path, name):
     # worst_case off: on the numpy path (no compiled pose search for described mechanisms yet) the continuous
     # search over a 6-D W costs minutes; tests/test_worstcase.py checks the search itself
     cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1, worst_case=False,
+                            extremes={"starts": 1, "scan": 256},
                             pareto={"algorithms": ["nsga2"], "population": 6, "generations": 2})
     # small proofs and coarse integrals: what is checked here is that the run finishes and repeats
     cfg["checks"] = {"certificate_budget": 400, "integral_tolerance": 0.05, "integral_max_points": 500}
@@ -43,14 +44,15 @@ def _results(folder: Path):
 def test_run_finishes_and_is_reproducible(tmp_path, name):
     f = _tiny(tmp_path, name)
     outs = []
-    for sub, jobs in (("a", "1"), ("b", "1"), ("c", "2")):
+    # the second run (--jobs 2) runs some stages again in this process and the others in a worker
+    # process: the same results show both that a repeat in one process and a fresh process agree
+    for sub, jobs in (("a", "1"), ("c", "2")):
         rc, out, err = run_cli_in(tmp_path, ["run", str(f), "--out", str(tmp_path / sub), "--quiet", "--jobs", jobs,
                                              "--seed", "3"])
         assert rc == 0, err
         assert "complete" in out
         outs.append(_results(tmp_path / sub))
     assert outs[0] == outs[1]
-    assert outs[0] == outs[2]
     res = outs[0][0]
     assert res["status"] == "complete" and res["seed"] == 3
     assert all(v == v for v in res["global_indices"].values())  # finite, not NaN

@@ -96,7 +96,8 @@ def test_worst_conditioning_without_an_isotropy_index():
     cfg = parse_config((DATA / "p4s_small.yaml").read_text().replace(
         "indices: {dynamic: {}, stiffness: {}, isotropy: {}}", "indices: {dynamic: {}, stiffness: {}}").replace(
         "  before: {dynamic: 29.9205, stiffness: 0.1373, isotropy: 10.0075}\n  after: {dynamic: 15.2434, stiffness: 0.3522, isotropy: 4.5370}",
-        "  before: {dynamic: 29.9205}").replace("optimizer: {", "optimizer: {worst_case: false, constraint_margin: 0, "),
+        "  before: {dynamic: 29.9205}").replace("optimizer: {worst_case: false, ",
+                                             "optimizer: {worst_case: false, constraint_margin: 0, "),
         "p4s_small.yaml")
     assert "isotropy" not in cfg.indices
     ev = Evaluator.from_config(cfg)
@@ -143,7 +144,7 @@ def test_extra_objectives_come_from_the_mechanism():
 def test_stroke_limits_from_inverse_kinematics():
     text = (DATA / "p4s_small.yaml").read_text().replace(
         "optimizer: {", "optimizer: {stroke_limits: [0.40, 0.45], ")
-    cfg = parse_config(text.replace("optimizer: {", "optimizer: {worst_case: false, constraint_margin: 0, "), "s.yaml")
+    cfg = parse_config(text.replace("worst_case: false, ", "worst_case: false, constraint_margin: 0, "), "s.yaml")
     ev = Evaluator.from_config(cfg)
     assert ev.constraint_names[-2:] == ["stroke_low", "stroke_high"]
     X = _random_vectors(ev, 5, seed=2)

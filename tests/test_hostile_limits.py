@@ -89,13 +89,13 @@ def test_one_limit_on_workspace_points():
         text = yamlsafe.dump(data, sort_keys=False)
         scale = math.pi / 180 if ws.get("unit") == "deg" else 1.0
         tracemalloc.start()
-        t0 = time.perf_counter()
+        t0 = time.process_time()     # CPU seconds: the bound holds however busy the machine is
         try:
             cfg = parse_config(text, "c.yaml")
             err = None
         except ConfigError as exc:
             err = exc
-        elapsed = time.perf_counter() - t0
+        elapsed = time.process_time() - t0
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
         assert elapsed < 2 and peak < 30e6, (ws, elapsed, peak)        # nothing proportional to the points
@@ -210,9 +210,9 @@ def test_limits_through_the_commands(label, command):
     ws.update(edits)
     with sandbox() as (work, outside):
         (work / "c.yaml").write_text(yamlsafe.dump(data, sort_keys=False))
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         run_case(work, outside, command + ["c.yaml"], label, file="c.yaml", key=f"{key}: ", allowed=(2,))
-        assert time.perf_counter() - t0 < 5
+        assert time.process_time() - t0 < 5
         assert files_under(work) == {"c.yaml"}
 
 
@@ -226,7 +226,7 @@ def test_batch_sizes_are_bounded(body, argv, key):
     """At most 100,000 runs (and 10,000 sweep combinations) per batch, refused before any task is made."""
     with sandbox() as (work, outside):
         (work / "b.yaml").write_text(f"base: {DATA / 'batch_small.yaml'}\n" + body)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         run_case(work, outside, ["batch", "b.yaml", "--dry-run"] + argv, key, key=key, allowed=(2,))
-        assert time.perf_counter() - t0 < 30
+        assert time.process_time() - t0 < 30
         assert files_under(work) == {"b.yaml"}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import pytest
+import yaml
 
 from optdesign.mechanisms import available
 
@@ -23,7 +24,13 @@ def test_init_config_validates_and_runs(tmp_path, mech):
     small = (text.replace("population: 30", "population: 8").replace("generations: 30", "generations: 2")
              .replace("population: 40, generations: 40", "population: 8, generations: 2"))
     assert small != text
-    (tmp_path / "small.yaml").write_text(small)
+    # what is checked is that the template runs to the end: the constraints at the samples, one start
+    # per extreme and one polish, small proofs and coarse integrals (tests/test_worstcase.py, test_polish.py
+    # and test_certify*.py check those parts)
+    data = yaml.safe_load(small)
+    data["optimizer"].update(worst_case=False, polish=1, extremes={"starts": 1, "scan": 256})
+    data["checks"] = {"certificate_budget": 400, "integral_tolerance": 0.05, "integral_max_points": 500}
+    (tmp_path / "small.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
     rc, out, err = run_cli_in(tmp_path, ["run", "small.yaml", "--quiet", "--jobs", "1", "--out", "runs"])
     assert rc == 0, err
     folder = next((tmp_path / "runs").iterdir())
