@@ -198,7 +198,7 @@ def _row_line(row: dict) -> str:
 
 
 def _print_json(rows, tasks, csv_path, md_path) -> None:
-    from ..batch import group_stats
+    from ..report.summary import group_stats
     from ._common import json_text
 
     out = {"runs": len(rows), "complete": sum(1 for r in rows if r.get("status") == "complete"),

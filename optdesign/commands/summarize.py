@@ -54,7 +54,7 @@ def run(args) -> int:
     csv_path, md_path = summarize(rows, out, plot=not args.no_plot)
     png = md_path.with_suffix(".png")
     if args.json:
-        from ..batch import group_stats
+        from ..report.summary import group_stats
         from ._common import json_text
 
         print(json_text({"runs": len(rows), "complete": sum(1 for r in rows if r.get("status") == "complete"),
