@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from ..config import Config
 
-__all__ = ["certificate_lines", "status_text"]
+__all__ = ["certificate_lines", "refutation", "status_text"]
 
 
 def _pose_text(cfg: Config, names, pose) -> str:
@@ -18,6 +18,14 @@ def _pose_text(cfg: Config, names, pose) -> str:
     return ", ".join(parts)
 
 
+def refutation(cert: dict, gt: str = ">") -> str:
+    """Why a refuted certificate failed, in words (``gt``: how to write ">")."""
+    v = cert.get("value")
+    return {"unreachable": "a pose of W is unreachable", "stroke": "a stroke limit is broken"}.get(
+        cert.get("reason"), f"cond {v:.4g} {gt} {cert['limit']:.4g}" if v is not None and cert.get("limit") is not None
+        else "singular")
+
+
 def status_text(cert: dict | None) -> str:
     """A short status for a table cell or a line."""
     if not cert:
@@ -26,11 +34,7 @@ def status_text(cert: dict | None) -> str:
     if s == "certified":
         return "certified"
     if s == "refuted":
-        v = cert.get("value")
-        what = {"unreachable": "a pose of W is unreachable", "stroke": "a stroke limit is broken"}.get(
-            cert.get("reason"), f"cond {v:.4g} > {cert['limit']:.4g}" if v is not None and cert.get("limit") is not None
-            else "singular")
-        return f"REFUTED ({what})"
+        return f"REFUTED ({refutation(cert)})"
     if s == "unknown":
         return f"unknown ({100 * cert['share_proved']:.1f} % of W proved)"
     return "not supported"

@@ -3,6 +3,7 @@ continuous workspace (results.json["certificates"]), in the config's units."""
 from __future__ import annotations
 
 from ...units import pose_display
+from ..certificates import refutation
 from .figures import esc
 from .rundata import RunData
 from .tables import html_table
@@ -15,11 +16,7 @@ _CLASS = {"certified": "ok", "refuted": "bad", "unknown": "warn", "not_supported
 def _status(c: dict) -> str:
     s = c["status"]
     if s == "refuted":
-        v = c.get("value")
-        what = {"unreachable": "a pose of W unreachable", "stroke": "a stroke limit broken"}.get(
-            c.get("reason"), f"cond {v:.4g} &gt; {c['limit']:.4g}" if v is not None and c.get("limit") is not None
-            else "singular")
-        return f"<b>refuted</b> ({what})"
+        return f"<b>refuted</b> ({refutation(c, gt='&gt;')})"
     if s == "unknown":
         return f"unknown ({100 * c['share_proved']:.1f} % of W proved)"
     return esc(s.replace("_", " "))
