@@ -322,21 +322,39 @@ class Evaluator:
         new = np.flatnonzero([k not in self._memo for k in keys])
         if new.size:
             req = next(r for r in self.requests_all if r.name == (self._cond or _COND))
-            c, q = worstcase.worst_over_w(self.mechanism, self.fixed, {k: v[new] for k, v in designs.items()},
-                                          self.workspace, req, self.limit, np.asarray(cmax)[new], frac[new],
-                                          None if Q is None else np.asarray(Q)[new], self.stroke_limits,
-                                          self.margin, self.worst_case_method)
+            c, q, where = worstcase.worst_over_w(self.mechanism, self.fixed,
+                                                 {k: v[new] for k, v in designs.items()}, self.workspace, req,
+                                                 self.limit, np.asarray(cmax)[new], frac[new],
+                                                 None if Q is None else np.asarray(Q)[new], self.stroke_limits,
+                                                 self.margin, self.worst_case_method, poses=True)
             if len(self._memo) + new.size > self.MEMO:
                 self._memo.clear()
             for j, i in enumerate(new):
-                self._memo[keys[i]] = (c[j],) + ((q[0][j], q[1][j]) if q is not None else ())
-        found = np.array([self._memo[k] for k in keys], float).reshape(len(keys), -1)
+                self._memo[keys[i]] = ((c[j],) + ((q[0][j], q[1][j]) if q is not None else ()),
+                                       {k: v[j] for k, v in where.items()})
+        found = np.array([self._memo[k][0] for k in keys], float).reshape(len(keys), -1)
         return found[:, 0], ((found[:, 1], found[:, 2]) if Q is not None else None)
+
+    def worst_poses(self, X: np.ndarray) -> dict[str, np.ndarray] | None:
+        """The poses (D, dof) SI of the maxima over W that the last calls found
+        for the design vectors X (D, n_var): ``cond``, and with strokes
+        ``q_max`` and ``q_min`` (NaN rows where the search did not run: a
+        design the samples find infeasible), or None when a design of X was
+        not searched by this Evaluator (``worst_case`` off, or not evaluated)."""
+        setting = (self.worst_case_method, self.limit, self.margin, self.stroke_limits)
+        keys = [(setting, row.tobytes()) for row in np.ascontiguousarray(np.atleast_2d(X), float)]
+        if not self.worst_case or any(k not in self._memo for k in keys):
+            return None
+        got = [self._memo[k][1] for k in keys]
+        return {name: np.stack([g[name] for g in got]) for name in got[0]}
 
     def __getstate__(self):
         return {**self.__dict__, "_memo": {}}    # a copy for another process starts empty
 
-    def __call__(self, X: np.ndarray) -> dict:
+    def __call__(self, X: np.ndarray, worst_case: bool | None = None) -> dict:
+        """The values, constraints and reachable fractions of the design
+        vectors X (D, n_var); ``worst_case``: this call's choice of the
+        continuous search (None: the Evaluator's own)."""
         check_size(self.workspace.n, np.atleast_2d(X).shape[0])
         designs = self.designs(X)
         mech, summary, reach, _ = _evaluate(self.mechanism, self.fixed, designs, self.workspace, self.requests_all)
@@ -354,7 +372,7 @@ class Evaluator:
         if self.stroke_limits is not None:
             with np.errstate(all="ignore"):
                 Q = mech.inverse(self.workspace.X)
-        if self.worst_case:
+        if self.worst_case if worst_case is None else worst_case:
             cmax, Q = self._worst_over_w(np.atleast_2d(X), designs, cmax, frac, Q)
         cons = {
             "reach": 1.0 - frac,

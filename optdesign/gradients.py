@@ -20,6 +20,11 @@ Two routes, one answer (:class:`Derivatives`):
   parameter the CasADi model does not read, a Jacobian convention it does not
   share): one evaluation of ``4 n + 1`` designs (steps h and 2h), the
   difference of the two estimates kept as an error estimate (``fd_error``).
+  With the worst case over W on, the stencil is evaluated on the samples
+  only: the constraints on maxima over W take their values from the search
+  at the design itself and their derivatives from the differences of the
+  local quantity at the pose of each maximum (the envelope theorem), so a
+  derivative costs one search per design, not one per stencil design.
 
 Global indices are the means over the reachable points (eq. 29, with the
 workspace's quadrature weights where it has them), so their derivative is the
@@ -313,7 +318,12 @@ def _fd(evaluator: Evaluator, X: np.ndarray, reason: str = "", values_only: bool
     h = FD_STEP * (evaluator.xu - evaluator.xl)
     E = np.diag(h)
     offs = np.concatenate([np.zeros((1, n)), E, -E, 2 * E, -2 * E])          # (4n + 1, n)
-    res = evaluator((X[:, None, :] + offs[None]).reshape(-1, n))
+    stencil = (X[:, None, :] + offs[None]).reshape(-1, n)
+    worst = bool(getattr(evaluator, "worst_case", False)) and hasattr(evaluator, "worst_poses")
+    # with the worst case over W: the maxima at X from the search, their
+    # derivatives at the poses found (the envelope theorem), the stencil
+    # evaluated on the samples only (no search per stencil design)
+    res = evaluator(stencil, worst_case=False) if worst else evaluator(stencil)
 
     def diff(a):
         """(value at X, derivative (h and 2h combined, Richardson), error estimate |g_h - g_2h| / 3)."""
@@ -329,8 +339,49 @@ def _fd(evaluator: Evaluator, X: np.ndarray, reason: str = "", values_only: bool
         if k in res["constraints"]:
             v, g, _ = diff(res["constraints"][k])
             cons[k], cgrads[k] = v[:, None], g[:, None, :]
+    if worst:
+        _envelope(evaluator, X, stencil, diff, cons, cgrads)
     reach = np.asarray(res["reachable_fraction"]).reshape(D, 4 * n + 1)[:, 0]
     return Derivatives("fd", values, grads, cons, cgrads, reach, err, reason)
+
+
+def _envelope(evaluator: Evaluator, X: np.ndarray, stencil: np.ndarray, diff, cons: dict, cgrads: dict) -> None:
+    """The worst-case constraints of :func:`_fd` at the designs X (D, n): their
+    values from the Evaluator (the continuous search), their derivatives the
+    central differences over the stencil of the local quantity at the pose of
+    each maximum (for a design the search skips, infeasible on the samples
+    already: the samples' maximum and its differences, as computed)."""
+    base = evaluator(X)["constraints"]
+    where = evaluator.worst_poses(X)
+    if where is None:
+        return
+    D, n = X.shape
+    S = stencil.shape[0] // D
+    designs = evaluator.designs(stencil)
+    req = next(r for r in evaluator.requests_all if r.name == (evaluator._cond or _COND))
+    fs = worstcase.local_functions(evaluator.mechanism, evaluator.fixed, designs, req.kind, req.convention,
+                                   stroke=evaluator.stroke_limits is not None)
+    index = np.arange(D * S)
+    lo, hi = evaluator.stroke_limits or (0.0, 0.0)
+    pad = evaluator.margin * (hi - lo)
+    rows = {"singularity": ("cond", lambda v: np.where(np.isfinite(v), v / evaluator.limit - 1.0, np.nan)),
+            "stroke_high": ("q_max", lambda v: np.where(np.isfinite(v), v - (hi - pad), np.nan)),
+            "stroke_low": ("q_min_neg", lambda v: np.where(np.isfinite(v), lo + pad + v, np.nan))}
+    for k, (quantity, form) in rows.items():
+        if k not in cons:
+            continue
+        P = where["q_min" if quantity == "q_min_neg" else quantity]
+        known = np.all(np.isfinite(P), axis=1)
+        if not known.any():
+            continue
+        poses = np.repeat(np.where(known[:, None], P, 0.0), S, axis=0)[None]       # (1, D S, dof)
+        with np.errstate(all="ignore"):
+            v = form(np.asarray(fs[quantity](index)(poses), float)[0])
+            _, g, _ = diff(v)
+        c = np.asarray(base[k], float)
+        good = known & np.isfinite(c) & np.all(np.isfinite(g), axis=1)
+        cons[k] = np.where(known[:, None], c[:, None], cons[k])
+        cgrads[k] = np.where(good[:, None, None], g[:, None, :], np.where(known[:, None, None], 0.0, cgrads[k]))
 
 
 def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values_only: bool = False) -> Derivatives:

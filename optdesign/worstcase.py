@@ -367,7 +367,8 @@ def _sampled_cond(mech, X: np.ndarray, request, D: int, serial: bool = True) -> 
 
 def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
                  request, limit: float, cmax: np.ndarray, reach_fraction: np.ndarray, Q=None,
-                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "auto"):
+                 stroke_limits: tuple[float, float] | None = None, margin: float = 0.0, method: str = "auto",
+                 poses: bool = False):
     """The maxima over W of the local constraints of a population (what the
     Evaluator's constraints need): ``(max cond (D,), (min q, max q) (D,) or
     None)``.  ``cmax`` and ``Q`` (D, N, n_act) are the samples' values; the
@@ -377,24 +378,32 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
     their sampled values.  ``request`` is the conditioning index request (its
     kind and convention are those of the sampled index); ``method`` that of
     :func:`maximize` (``"ascent"``: the earlier search as it was, on the numpy
-    path's quantities, for benchmarks/bench_worstcase.py)."""
+    path's quantities, for benchmarks/bench_worstcase.py).  With ``poses`` a
+    third item: ``{"cond", "q_max", "q_min"}`` -> the pose (D, dof) SI of each
+    maximum (of the largest actuator value, of the smallest), NaN rows for the
+    designs not searched (and no stroke keys without strokes): where the
+    derivative of the maximum is the partial derivative (the envelope theorem)."""
     cmax = np.array(cmax, float)
+    D = cmax.shape[0]
+    dof = ws.X.shape[1]
+    where = {"cond": np.full((D, dof), np.nan)}
     ok = (reach_fraction >= 1.0) & np.isfinite(cmax) & (cmax <= limit)
     qr = q_range(Q) if Q is not None else None
     if qr is not None:
         lo, hi = stroke_limits
         pad = margin * (hi - lo)
         ok &= (qr[0] >= lo + pad) & (qr[1] <= hi - pad)
+        where["q_max"], where["q_min"] = np.full((D, dof), np.nan), np.full((D, dof), np.nan)
     idx = np.flatnonzero(ok)
     if idx.size == 0:
-        return cmax, qr
+        return (cmax, qr, where) if poses else (cmax, qr)
     sub = {k: np.asarray(v, float)[idx] for k, v in designs.items()}
     mech = mechanism(**{**fixed, **{k: v[:, None] for k, v in sub.items()}})
     new = method != "ascent"                # "ascent": the earlier search as it was, numpy quantities
     sampled = _sampled_cond(mech, ws.X, request, idx.size, serial=new)
     fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None,
                          compiled=new)
-    found, _ = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method)
+    found, where["cond"][idx] = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method)
     cmax[idx] = np.maximum(cmax[idx], found)
     if qr is not None:
         qn, qx = qr[0].copy(), qr[1].copy()
@@ -403,10 +412,12 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
             fin = np.all(np.isfinite(Qs), axis=-1)
             top = np.where(fin, np.max(Qs, axis=-1), np.inf)
             neg = np.where(fin, np.max(-Qs, axis=-1), np.inf)
-        qx[idx] = np.maximum(qx[idx], maximize(fs["q_max"], ws, top, method=method)[0])
-        qn[idx] = np.minimum(qn[idx], -maximize(fs["q_min_neg"], ws, neg, method=method)[0])
+        vx, where["q_max"][idx] = maximize(fs["q_max"], ws, top, method=method)
+        vn, where["q_min"][idx] = maximize(fs["q_min_neg"], ws, neg, method=method)
+        qx[idx] = np.maximum(qx[idx], vx)
+        qn[idx] = np.minimum(qn[idx], -vn)
         qr = (qn, qx)
-    return cmax, qr
+    return (cmax, qr, where) if poses else (cmax, qr)
 
 
 def worst_poses(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,

@@ -17,9 +17,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def _tiny(tmp_path, name):
     cfg = yaml.safe_load((ROOT / "configs" / name).read_text())
     cfg["workspace"]["points"] = 64
-    # worst_case off: on the numpy path (no compiled pose search for described mechanisms yet) the continuous
-    # search over a 6-D W costs minutes; tests/test_worstcase.py checks the search itself
-    cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1, worst_case=False,
+    # the worst case over W on, as shipped: the compiled pose search (Mechanism.local_values_at)
+    cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1,
                             extremes={"starts": 1, "scan": 256},
                             pareto={"algorithms": ["nsga2"], "population": 6, "generations": 2})
     # small proofs and coarse integrals: what is checked here is that the run finishes and repeats
@@ -53,6 +52,25 @@ def test_run_finishes_and_is_reproducible(tmp_path, name):
         assert "complete" in out
         outs.append(_results(tmp_path / sub))
     assert outs[0] == outs[1]
+    for sub in ("a", "c"):
+        run = next((tmp_path / sub).iterdir())
+        assert (run / "report.html").exists() and not (run / "report-error.txt").exists()
     res = outs[0][0]
     assert res["status"] == "complete" and res["seed"] == 3
     assert all(v == v for v in res["global_indices"].values())  # finite, not NaN
+
+
+def test_history_csv_quotes_a_unit_with_a_comma():
+    """A column whose unit has a comma (an index of mixed units: 'SI, mixed')
+    is quoted, so the CSV reads back with its columns (the HTML report reads
+    the histories this way)."""
+    import csv
+
+    from optdesign.optimize.results import rows_csv
+    from optdesign.units import MIXED
+
+    col = f"best_dynamic [{MIXED}]"
+    text = rows_csv([{"generation": 1, col: 15.5}, {"generation": 2, col: 0.1}])
+    rows = list(csv.reader(text.splitlines()))
+    assert rows[0] == ["generation", col]
+    assert [float(r[1]) for r in rows[1:]] == [15.5, 0.1]

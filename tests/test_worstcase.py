@@ -140,3 +140,56 @@ def test_a_design_seen_before_is_not_searched_again(monkeypatch):
     again = ev(np.array([[0.25, 0.67, np.deg2rad(30)], BETWEEN, [0.26, 0.67, np.deg2rad(30)]]))["constraints"]
     assert rows == [2, 1]                                        # only the new design is searched
     assert np.array_equal(again["singularity"][:2], first[::-1]) and first[0] > 0
+
+
+def test_fd_route_differentiates_the_maximum_at_its_pose():
+    """With the worst case on, the central-difference route's singularity
+    constraint is the maximum over W found by the search, and its derivative
+    that of cond at the pose of the maximum (the envelope theorem): it equals
+    the AD route's derivative of the constraint it adds at that pose (CasADi,
+    an independent derivative; that constraint is log(cond / limit))."""
+    from optdesign.gradients import derivatives
+
+    ev = Evaluator.from_config(load_config(PAPER.parent / "p4s_tradeoff.yaml"))
+    assert ev.worst_case
+    X = np.clip(np.array([[0.25, 0.67, np.deg2rad(30)], [0.27, 0.66, np.deg2rad(24)]]), ev.xl, ev.xu)
+    fd = derivatives(ev, X, route="fd")
+    ad = derivatives(ev, X, route="ad")
+    c = fd.constraints["singularity"][:, 0]
+    assert np.all(c < 0)                                              # feasible designs: a smooth maximum
+    assert np.allclose(c, ev(X)["constraints"]["singularity"], rtol=0, atol=0)
+    assert np.allclose(np.log(c + 1.0), ad.constraints["singularity"][:, -1], rtol=1e-9, atol=1e-12)
+    g_ad = ad.constraint_grads["singularity"][:, -1] * (c + 1.0)[:, None]
+    assert np.allclose(fd.constraint_grads["singularity"][:, 0], g_ad, rtol=1e-5, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["gough_stewart_opt", "delta_opt", "sps_s_legs_opt"])
+def test_described_local_values_at_equal_the_numpy_path(name):
+    """A described mechanism's compiled local values, each design at its own
+    poses (the worst-case search's quantity), equal the numpy path's formulas
+    on its own Jacobian and mass matrix for every index of the config, with the
+    same reachable mask (random designs of the bounds, poses around W's samples)."""
+    from optdesign.indices import local_index
+
+    ev = Evaluator.from_config(load_config(PAPER.parent / f"{name}.yaml"))
+    rng = np.random.default_rng(7)
+    d = ev.designs(ev.xl + (ev.xu - ev.xl) * rng.random((5, len(ev.xl))))
+    idx = np.array([0, 1, 2, 3, 4, 2])
+    Xw = ev.workspace.X
+    P = Xw[rng.integers(0, len(Xw), (9, idx.size))]
+    P = P + 0.02 * rng.standard_normal(P.shape) * (np.ptp(Xw, axis=0) > 0)
+    m = ev.mechanism(**{**ev.fixed, **{k: v[idx] for k, v in d.items()}})
+    reach = np.asarray(m.reachable(P), bool).T
+    for req in ev.requests_all:
+        got = m.local_values_at([req], np.swapaxes(P, 0, 1))
+        if not fast.enabled():
+            assert got is None
+            continue
+        vals, r = got
+        assert np.array_equal(r, reach)
+        mats = m.index_matrices(P, {"J"} | ({"M"} if req.kind == "dynamic" else set()))
+        ref = np.asarray(local_index(req.kind, J=mats["J"], M=mats.get("M"), convention=req.convention,
+                                     options=dict(req.options or ())), float).T
+        a = vals[req.name]
+        assert np.all(np.isnan(a[~reach]))
+        assert np.allclose(a[reach], ref[reach], rtol=1e-12, atol=0), req.name

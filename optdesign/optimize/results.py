@@ -3,6 +3,8 @@ the placement of the weighted-sum optimum and the named designs against the
 Pareto fronts."""
 from __future__ import annotations
 
+import csv
+import io
 import math
 
 import numpy as np
@@ -24,7 +26,11 @@ def rows_csv(rows: list[dict]) -> str:
     for r in rows[1:]:
         keys.extend(k for k in r if k not in keys)
     val = lambda v: "" if v is None else repr(v) if isinstance(v, float) else str(v)  # noqa: E731
-    return "\n".join([",".join(keys)] + [",".join(val(r.get(k)) for k in keys) for r in rows]) + "\n"
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")    # a field with a comma (a unit 'SI, mixed') is quoted
+    w.writerow(keys)
+    w.writerows([val(r.get(k)) for k in keys] for r in rows)
+    return out.getvalue()
 
 
 def population_rows(evaluator, problem, pop) -> list[dict]:

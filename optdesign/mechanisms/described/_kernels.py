@@ -825,7 +825,7 @@ def _task(nt, cspec, ptype, ct, kind, branch, L, F, d, FRd, lo, n_pts, want, fla
 
 
 @njit(parallel=True, **_NJIT)
-def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers):
+def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, workers, keep):
     """Per-design statistics (D, NVAL, 4: sum, min, max, centred sum of squares)
     over the points of code 1, their counts (D,), the codes (D, N) (int8).
 
@@ -835,7 +835,10 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
     FR (1 or D, N, FR_ROWS[ptype]): the frame data of the N points; want (NVAL,) booleans; flags: (dynamic, sigma_min,
     sigma_max, column norms, rods, rotations) booleans.  Work: tasks of CHUNK
     points of one design, shared among ``workers`` parallel loops (numba's
-    thread count) in a fixed pattern; each task's results are its own."""
+    thread count) in a fixed pattern; each task's results are its own.
+    keep: (D, NVAL, N) to receive every point's wanted values too (the
+    worst-case search's quantity: FR per design, each design at its own
+    points), or an empty (0, 0, 0) array."""
     D = L.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
     ntask = D * nch
@@ -860,6 +863,12 @@ def summary(nt, cspec, ptype, ct, kind, branch, L, F, FR, N, want, flags, worker
             cd = codes[d, lo:hi]
             for j in range(hi - lo):
                 cd[j] = np.int8(cbuf[j])
+            if keep.shape[0] > 0:
+                for v in range(NVAL):
+                    if want[v]:
+                        kv = keep[d, v, lo:hi]
+                        for j in range(hi - lo):
+                            kv[j] = vals[v * CHUNK + j]
     stats = np.full((D, NVAL, 4), np.nan)
     counts = np.zeros(D, dtype=np.int64)
     for d in range(D):

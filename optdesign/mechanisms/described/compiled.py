@@ -27,7 +27,7 @@ from ...fast.merge import add_points
 from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, kernel_value, select, singular_values
 from ..base import IndexRequest
 
-__all__ = ["IndexRequest", "global_statistics", "reach_codes", "plan", "kernels", "pack"]
+__all__ = ["IndexRequest", "global_statistics", "local_values_at", "reach_codes", "plan", "kernels", "pack"]
 
 KERNELS = KernelModule("optdesign.mechanisms.described._kernels")
 
@@ -158,6 +158,10 @@ def frame_rows(mech, X, fixed):
 _FR_BUDGET = 4_000_000
 
 
+#: summary's ``keep`` when no point's values are kept
+_NO_KEEP = np.zeros((0, 0, 0))
+
+
 def _run_kernel(K, mech, codes, L, F, X, want):
     """The kernel's (stats, counts, codes) for every design: one call when the
     frames are the same for all designs (a rotation pose's fixed angles do not
@@ -165,8 +169,7 @@ def _run_kernel(K, mech, codes, L, F, X, want):
     ptype, ct, kind, branch = codes
     nt, cspec = kernel_spec(codes).numba_args()
     N = X.shape[0]
-    flags = (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
-             bool(want[COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+    flags = _flags(want, codes)
     args = (nt, cspec, ptype, ct, kind, branch)
     import numba
 
@@ -176,14 +179,14 @@ def _run_kernel(K, mech, codes, L, F, X, want):
     spec = mech.pose_spec
     if spec.type != "rotation" or len(spec.roles) == 3 or np.all(fix == fix[0]):
         FR = frame_rows(mech, X, fix[:1, None, :])
-        return KERNELS.guarded(K.summary, *args, L, F, FR, N, want, flags, workers)
+        return KERNELS.guarded(K.summary, *args, L, F, FR, N, want, flags, workers, _NO_KEEP)
     step = max(1, _FR_BUDGET // (K.NFR * max(1, X.shape[0])))
     parts = []
     for lo in range(0, D, step):
         sl = slice(lo, min(D, lo + step))
         FR = frame_rows(mech, X, fix[sl, None, :])
         res = KERNELS.guarded(K.summary, *args, np.ascontiguousarray(L[sl]), np.ascontiguousarray(F[sl]), FR, N,
-                              want, flags, workers)
+                              want, flags, workers, _NO_KEEP)
         if res is None:
             return None
         parts.append(res)
@@ -333,6 +336,69 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     if want_max_cond:
         summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
     return summary, cd != 0
+
+
+def _flags(want, codes):
+    """The kernel's flags (dynamic, sigma_min, sigma_max, column norms, rods, rotations) for the wanted values."""
+    ptype, _, kind, _ = codes
+    return (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
+            bool(want[COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+
+
+def local_values_at(mech, requests, X):
+    """The seam ``Mechanism.local_values_at``: each of the D designs at its own
+    K points X (D, K, dof), ``(values {name: (D, K)}, reachable (D, K))``, NaN
+    where not reachable, or None when the kernel does not compute every
+    request (the caller then runs the numpy path).  Points the kernel flags
+    (``cond_F(J) >= 1000`` or not finite) get the numpy path's values, as in
+    :func:`global_statistics`."""
+    if not enabled():
+        return None
+    X = np.asarray(X, dtype=float)
+    K = kernels()
+    if K is None or X.ndim != 3 or X.shape[2] != mech.dof or X.shape[1] == 0:
+        return None
+    pl = plan(requests, mech.dof, mech.description.has_dynamics)
+    if len(pl) != len(requests):
+        return None
+    try:
+        codes, L, F, D = pack(mech)
+    except ValueError:
+        return None
+    if X.shape[0] != D:
+        return None
+    ptype, ct, kind, branch = codes
+    n_pts = X.shape[1]
+    rows = K.FR_ROWS[ptype]
+    fix = F[:, K.FFIX:K.FFIX + 3]
+    if mech.pose_spec.type != "rotation" or len(mech.pose_spec.roles) == 3 or np.all(fix == fix[0]):
+        FR = frame_rows(mech, X.reshape(D * n_pts, -1), fix[:1, None, :])[0].reshape(D, n_pts, rows)
+    else:       # a rotation pose whose fixed angles differ between designs: each design's own frames
+        FR = np.stack([frame_rows(mech, X[d], fix[d:d + 1, None, :])[0] for d in range(D)])
+    want = np.zeros(NVAL, dtype=np.bool_)
+    want[sorted({v for _, v, _ in pl})] = True
+    keep = np.zeros((D, NVAL, n_pts))
+    import numba
+
+    res = KERNELS.guarded(K.summary, *kernel_spec(codes).numba_args(), ptype, ct, kind, branch, L, F,
+                          np.ascontiguousarray(FR), n_pts, want, _flags(want, codes), numba.get_num_threads(), keep)
+    if res is None:
+        return None
+    cd = res[2]
+    out = {}
+    for name, v, fac in pl:
+        out[name] = keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()
+    dd, kk = np.nonzero(cd == 2)
+    if len(dd):
+        byname = {r.name: r for r in requests}
+        entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
+        extra = _numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, K, (codes, L, F, D))
+        for i, (name, _, _) in enumerate(pl):
+            out[name][dd, kk] = extra[i]
+    reach = cd != 0
+    for x in out.values():
+        x[~reach] = np.nan
+    return out, reach
 
 
 def reach_codes(mech, X) -> np.ndarray:

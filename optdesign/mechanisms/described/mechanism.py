@@ -304,6 +304,13 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return global_statistics(self, requests, X, want_max_cond)
 
+    def local_values_at(self, requests, X):
+        """The compiled path's local values, each design at its own points X
+        (D, K, dof) (:func:`.compiled.local_values_at`), or None."""
+        from .compiled import local_values_at
+
+        return local_values_at(self, requests, X)
+
     def kernel_source(self, title: str) -> str:
         """The generated routines of the compiled kernel for this shape (:mod:`._codegen`)."""
         from .compiled import kernel_source

@@ -161,8 +161,10 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                             vertical_spacing=min(0.12, 0.6 / max(nrow - 1, 1)) if nrow > 1 else 0.1)
         for i, s in enumerate(ga):
             r, rows = run.stages[s], run.history[s]
-            g = _col(rows, "generation")
             row, col = i // ncol + 1, i % ncol + 1
+            if not rows:       # a stage that recorded no generation (its history is empty): an empty panel
+                continue
+            g = _col(rows, "generation")
             if r.get("kind") == "single" and r.get("index") in cfg.indices:
                 k = r["index"]
                 flip = -1.0 if r.get("sense") == "max" else 1.0
