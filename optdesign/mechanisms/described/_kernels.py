@@ -660,6 +660,11 @@ def _ov_lmax_rows(X, out, T, V, nt, m):
 
 @overload(_lmax_dyn, jit_options=_GEN_OPTIONS)
 def _ov_lmax_dyn(X, out, T, V, nt, m):
+    if routine_source("_lmax_dyn", size_of_type(nt)) == routine_source("_lmax_cols", size_of_type(nt)):
+        # the same code (NEWTON_DYN == NEWTON): compiled once, as _lmax_cols, and called
+        def impl(X, out, T, V, nt, m):
+            _lmax_cols(X, out, T, V, nt, m)
+        return impl
     return _compile(routine_source("_lmax_dyn", size_of_type(nt)))
 
 
