@@ -218,7 +218,9 @@ class Evaluator:
 
     ``__call__(X)`` with X (D, n_var) (the free design variables in order,
     SI) returns ``{"values": {index or extra objective: (D,)}, "constraints":
-    {name: (D,)}, "reachable_fraction": (D,)}``.  Constraints (``<= 0`` feasible):
+    {name: (D,)}, "reachable_fraction": (D,), "cond_max": (D,)}`` (``cond_max``:
+    the maximum over W that ``singularity`` is made of, inf where not finite,
+    0 where no point is reachable).  Constraints (``<= 0`` feasible):
 
     * ``reach``: the fraction of workspace points the design cannot reach;
     * ``singularity``: ``max_W cond(J) / (threshold (1 - margin)) - 1`` (the
@@ -387,4 +389,4 @@ class Evaluator:
             cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - (hi - pad), 1.0)
         vals.update(self.extra_values(designs))
         self.n_evaluations += X.shape[0]
-        return {"values": vals, "constraints": cons, "reachable_fraction": frac}
+        return {"values": vals, "constraints": cons, "reachable_fraction": frac, "cond_max": np.asarray(cmax, float)}

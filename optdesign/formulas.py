@@ -139,7 +139,12 @@ def sigma_max_of(s: np.ndarray, good: np.ndarray) -> np.ndarray:
 
 
 def sigma_min_of(s: np.ndarray, good: np.ndarray) -> np.ndarray:
-    return np.where(good, s[..., -1], 0.0)
+    """The smallest singular value, 0 where the input is not finite or the
+    value is round-off of the largest (numerically singular, the tolerance
+    of :func:`full_rank` with the number of singular values): LAPACK returns
+    anything from 0 to about 1e-64 for an exactly singular matrix, by platform."""
+    tol = s[..., 0] * s.shape[-1] * np.finfo(float).eps
+    return np.where(good & (s[..., -1] > tol), s[..., -1], 0.0)
 
 
 def cond_2_of(s: np.ndarray, good: np.ndarray, shape: tuple) -> np.ndarray:

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from conftest import CONFIGS
 
+from optdesign import worstcase
 from optdesign.config import load_config
 from optdesign.evaluate import Evaluator
 from optdesign.gradients import derivatives
@@ -117,11 +118,15 @@ def test_the_smooth_conditioning_constraint_is_the_evaluators():
         X = _designs(ev, 5, 6)
         d = derivatives(ev, X)
         g = ev(X)["constraints"]["singularity"]
-        # per point log(cond / T) and, with the worst case over W (the default), at each design's worst pose;
-        # its largest value is log of the Evaluator's max cond / T
+        # per point log(cond / T) and, with the worst case over W (the default), at the local maximum of each
+        # hill of W the search climbed, largest first; the largest value is log of the Evaluator's max cond / T
         assert np.allclose(np.max(d.constraints["singularity"], axis=1), np.log1p(g), rtol=1e-10, atol=1e-12)
         assert ev.worst_case
-        assert d.constraints["singularity"].shape == (len(X), ev.workspace.n + 1)
+        k = min(worstcase.STARTS, ev.workspace.n)
+        assert d.constraints["singularity"].shape == (len(X), ev.workspace.n + k)
+        hills = d.constraints["singularity"][:, ev.workspace.n:]
+        assert np.all(np.diff(hills, axis=1) <= 0)
+        assert np.allclose(hills[:, 0], np.log1p(g), rtol=1e-10, atol=1e-12)
 
 
 def test_local_derivatives_of_non_finite_or_singular_matrices_are_nan():

@@ -9,7 +9,7 @@ import yaml
 
 from conftest import DATA, PAPER
 from optdesign.config import load_config, parse_config
-from optdesign.evaluate import Evaluator
+from optdesign.evaluate import _COND, Evaluator
 from optdesign.linalg import cond_2, cond_fro
 from optdesign import fast, worstcase
 
@@ -144,23 +144,68 @@ def test_a_design_seen_before_is_not_searched_again(monkeypatch):
 
 def test_fd_route_differentiates_the_maximum_at_its_pose():
     """With the worst case on, the central-difference route's singularity
-    constraint is the maximum over W found by the search, and its derivative
-    that of cond at the pose of the maximum (the envelope theorem): it equals
-    the AD route's derivative of the constraint it adds at that pose (CasADi,
-    an independent derivative; that constraint is log(cond / limit))."""
-    from optdesign.gradients import derivatives
+    constraint is, in its first row, the maximum over W found by the search
+    (through :func:`smooth_singularity`), and its derivative that of cond
+    at the pose of the maximum (the envelope theorem): it equals the AD
+    route's derivative of the constraint it adds at that pose (CasADi, an
+    independent derivative; that constraint is log(cond / limit)).  The
+    other rows are the other hills' maxima, none above the first."""
+    from optdesign.gradients import derivatives, smooth_singularity
 
     ev = Evaluator.from_config(load_config(PAPER.parent / "p4s_tradeoff.yaml"))
     assert ev.worst_case
     X = np.clip(np.array([[0.25, 0.67, np.deg2rad(30)], [0.27, 0.66, np.deg2rad(24)]]), ev.xl, ev.xu)
     fd = derivatives(ev, X, route="fd")
     ad = derivatives(ev, X, route="ad")
-    c = fd.constraints["singularity"][:, 0]
+    rows = fd.constraints["singularity"]
+    assert rows.shape[1] > 1 and np.all(rows[:, 1:] <= rows[:, :1])
+    c = rows[:, 0]
     assert np.all(c < 0)                                              # feasible designs: a smooth maximum
-    assert np.allclose(c, ev(X)["constraints"]["singularity"], rtol=0, atol=0)
-    assert np.allclose(np.log(c + 1.0), ad.constraints["singularity"][:, -1], rtol=1e-9, atol=1e-12)
-    g_ad = ad.constraint_grads["singularity"][:, -1] * (c + 1.0)[:, None]
+    cond = ev(X)["cond_max"]
+    assert np.array_equal(c, smooth_singularity(cond, ev.limit))
+    top = ev.workspace.X.shape[0]            # the AD route's rows: every sample, then the hills, largest first
+    assert ad.constraints["singularity"].shape[1] == top + rows.shape[1]
+    assert np.allclose(np.log(cond / ev.limit), ad.constraints["singularity"][:, top], rtol=1e-9, atol=1e-12)
+    slope = np.where(2.0 * cond >= ev.limit, 2.0 * (ev.limit / cond) ** 2, 8.0)      # d smooth / d log cond
+    g_ad = ad.constraint_grads["singularity"][:, top] * slope[:, None]
     assert np.allclose(fd.constraint_grads["singularity"][:, 0], g_ad, rtol=1e-5, atol=1e-9)
+
+
+def test_smooth_singularity_has_the_feasible_set_of_the_limit_and_counts_the_unreachable_as_violated():
+    from optdesign.gradients import smooth_singularity
+    from optdesign.gradients.fd import _singularity
+
+    L = 1000.0
+    c = np.array([1.0, 100.0, 499.0, 500.0, 501.0, 999.0, 1000.0, 1001.0, 1e9])
+    t = smooth_singularity(c, L)
+    assert np.array_equal(t <= 0, c <= L) and t[6] == 0.0
+    assert np.all(np.diff(t) > 0)                                       # increasing in cond
+    assert np.all(smooth_singularity(np.array([np.inf, np.nan, 0.0]), L) == 1.0)   # singular, unreachable
+    h = 1e-6                                                            # C1 where the two forms meet
+    lo, hi = smooth_singularity(np.array([L / 2 - h, L / 2 + h]), L)
+    assert abs((hi - lo) / (2 * h) - 8.0 / (L / 2)) < 1e-6
+    # a design with an unreachable sample is violated, whatever cond is over the points it reaches
+    res = {"cond_max": np.array([5.0, 5.0]), "reachable_fraction": np.array([1.0, 0.99])}
+    assert np.array_equal(_singularity(res, L) > 0, [False, True])
+
+
+def test_the_search_refines_a_steep_maximum_next_to_the_limit_to_a_dense_grid():
+    """A Delta design next to a reach boundary (the seed-5 weighted-sum
+    optimum of configs/delta_opt.yaml before the refinement): its largest
+    cond lies on W's bottom rim, a peak so steep that the coarse zoom found
+    998.964 (below the limit 999, so it passed) where a dense grid of the
+    rim finds 999.007.  The refined search agrees with the grid."""
+    ev = Evaluator.from_config(load_config(PAPER.parent / "delta_opt.yaml"))
+    x = np.array([0.29975261553421956, 0.030359356647004253, 0.1996229139888836, 0.6163984628124797])
+    got = float(ev(x[None])["cond_max"][0])
+    th = np.linspace(0.0, 2.0 * np.pi, 200001)
+    rim = np.stack([0.15 * np.cos(th), 0.15 * np.sin(th), np.full_like(th, -0.7)], axis=1)
+    req = next(r for r in ev.requests_all if r.name == (ev._cond or _COND))
+    f = worstcase.local_functions(ev.mechanism, ev.fixed, ev.designs(x[None]), req.kind, req.convention)["cond"]
+    dense = float(np.max(np.asarray(f(np.zeros(1, int))(rim[:, None, :]), float)))
+    assert dense > ev.limit                            # infeasible: the refined search must say so
+    assert got >= dense * (1 - 1e-9) and got > ev.limit
+    assert ev(x[None])["constraints"]["singularity"][0] > 0
 
 
 @pytest.mark.parametrize("name", ["gough_stewart_opt", "delta_opt", "sps_s_legs_opt"])

@@ -44,6 +44,9 @@ from ..mechanisms.base import IndexRequest, Mechanism
 from ..workspace import Workspace
 from .search import ITERATIONS, STARTS, TOL, _project, maximize, region  # noqa: F401  (re-exported)
 
+#: a design whose cond maximum comes within this share of the limit has its maximum refined (:func:`maximize`)
+REFINE = 0.9
+
 __all__ = ["ITERATIONS", "STARTS", "TOL", "local_functions", "maximize", "q_range", "region", "worst_over_w", "worst_poses"]
 
 
@@ -144,13 +147,15 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
     :func:`maximize` (``"ascent"``: the earlier search as it was, on the numpy
     path's quantities, for benchmarks/bench_worstcase.py).  With ``poses`` a
     third item: ``{"cond", "q_max", "q_min"}`` -> the pose (D, dof) SI of each
-    maximum (of the largest actuator value, of the smallest), NaN rows for the
+    maximum (of the largest actuator value, of the smallest), and
+    ``"cond_hills"`` (D, starts, dof) the local maximum of cond on each hill
+    the search climbed (:func:`maximize`'s ``hills``), NaN rows for the
     designs not searched (and no stroke keys without strokes): where the
     derivative of the maximum is the partial derivative (the envelope theorem)."""
     cmax = np.array(cmax, float)
     D = cmax.shape[0]
     dof = ws.X.shape[1]
-    where = {"cond": np.full((D, dof), np.nan)}
+    where = {"cond": np.full((D, dof), np.nan), "cond_hills": np.full((D, max(1, min(STARTS, len(ws.X))), dof), np.nan)}
     ok = (reach_fraction >= 1.0) & np.isfinite(cmax) & (cmax <= limit)
     qr = q_range(Q) if Q is not None else None
     if qr is not None:
@@ -167,7 +172,9 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
     sampled = _sampled_cond(mech, ws.X, request, idx.size, serial=new)
     fs = local_functions(mechanism, fixed, sub, request.kind, request.convention, stroke=qr is not None,
                          compiled=new)
-    found, where["cond"][idx] = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method)
+    found, where["cond"][idx], hill = maximize(fs["cond"], ws, sampled, stop=2.0 * limit, method=method, hills=True,
+                                                   refine=REFINE * limit)
+    where["cond_hills"][idx] = hill
     cmax[idx] = np.maximum(cmax[idx], found)
     if qr is not None:
         qn, qx = qr[0].copy(), qr[1].copy()
@@ -185,11 +192,16 @@ def worst_over_w(mechanism: type, fixed: Mapping[str, float], designs: Mapping[s
 
 
 def worst_poses(mechanism: type, fixed: Mapping[str, float], designs: Mapping[str, np.ndarray], ws: Workspace,
-                request, sampled: np.ndarray) -> np.ndarray:
+                request, sampled: np.ndarray, limit: float | None = None, hills: bool = False) -> np.ndarray:
     """The pose (D, dof) SI of each design's largest condition number over W
     (``sampled`` (D, N) its values at ``ws.X``, inf where not reachable):
     where the gradient polish adds the constraint at the worst pose (by the
     envelope theorem the derivative of the maximum over W is the partial
-    derivative there)."""
+    derivative there).  With ``limit``: refined as :func:`worst_over_w`
+    refines it (the same pose the Evaluator's constraint comes from).  With
+    ``hills``: (D, k, dof) the local maximum of every hill the search
+    climbed (:func:`maximize`), NaN for a design it skipped."""
     fs = local_functions(mechanism, fixed, designs, request.kind, request.convention)
-    return maximize(fs["cond"], ws, np.asarray(sampled, float))[1]
+    refine = np.inf if limit is None else REFINE * limit
+    got = maximize(fs["cond"], ws, np.asarray(sampled, float), refine=refine, hills=hills)
+    return got[2] if hills else got[1]

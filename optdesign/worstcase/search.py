@@ -17,6 +17,10 @@ STARTS = 3
 ITERATIONS = 30
 #: the search of a start ends when its step (unit coordinates of W) is below this
 TOL = 5e-4
+#: where the value decides feasibility, the best start zooms on down to this (unit coordinates of W) ...
+FINE_TOL = 1e-10
+#: ... in at most this many more levels
+FINE_LEVELS = 60
 #: the zoom search's neighbours: all 3^f - 1 up to this many free axes, the 2 f along the axes beyond
 FULL_GRID = 3
 #: finite-difference step (unit coordinates of W)
@@ -81,7 +85,8 @@ def _project(u: np.ndarray, reg: dict) -> np.ndarray:
 
 def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], ws: Workspace, sampled: np.ndarray,
              starts: int = STARTS, stop: float = np.inf, iterations: int = ITERATIONS, tol: float = TOL,
-             active: np.ndarray | None = None, method: str = "auto") -> tuple[np.ndarray, np.ndarray]:
+             active: np.ndarray | None = None, method: str = "auto", hills: bool = False,
+             refine: float = np.inf):
     """(max over W (D,), its pose (D, dof) SI) of a local quantity for D
     designs, whose values at the workspace points ``ws.X`` are ``sampled``
     (D, N) (inf where not reachable, NaN taken as inf).  ``make(index)``
@@ -93,7 +98,15 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     ``"ascent"`` (:func:`_ascent`: one call per step on 1 + f poses per start)
     or ``"auto"`` (the default): the zoom where ``make.compiled`` says the
     quantity has a compiled path (many poses per call cost little there),
-    the ascent otherwise (fewer poses: on the numpy path the zoom costs more)."""
+    the ascent otherwise (fewer poses: on the numpy path the zoom costs more).
+    ``refine``: the zoom's best start of each design whose value is at or
+    above this (next to the limit, where the answer decides feasibility)
+    goes on zooming down to :data:`FINE_TOL` (a maximum at W's boundary
+    next to a reach limit is a steep peak: at the coarse ``tol`` the value
+    can be a percent low).  With ``hills`` a third item (D, starts, dof): the pose where each start's
+    search ended (a local maximum on its own hill, NaN for a design not
+    searched), so that a caller can hold every hill's maximum, not only the
+    largest."""
     sampled = np.where(np.isnan(sampled), np.inf, sampled)
     D, N = sampled.shape
     X0 = ws.X
@@ -101,17 +114,18 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
     best = sampled[np.arange(D), best_i] if N else np.full(D, -np.inf)
     pose = X0[best_i].copy() if N else np.zeros((D, len(ws.names)))
     reg = region(ws)
+    k = min(starts, N)
+    ends = np.full((D, max(k, 1), X0.shape[1] if N else len(ws.names)), np.nan)
     if reg["axes"].size == 0 or N == 0:
-        return best, pose
+        return (best, pose, ends) if hills else (best, pose)
     todo = np.isfinite(best) & (best < stop)
     if active is not None:
         todo &= np.asarray(active, bool)
     d_idx = np.flatnonzero(todo)
     if d_idx.size == 0:
-        return best, pose
+        return (best, pose, ends) if hills else (best, pose)
     axes, lo, hi = reg["axes"], reg["lo"], reg["hi"]
     width = hi - lo
-    k = min(starts, N)
     worst = _diverse_worst(sampled[d_idx], (X0[:, axes] - lo) / width, k)
     design = np.repeat(d_idx, k)                       # (M,) the design of each start
     start_pts = worst.reshape(-1)
@@ -128,6 +142,8 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
         _zoom(quantity, u, val, spacing, stop, tol, iterations)
     else:
         raise ValueError(f"method {method!r}: expected 'zoom' or 'ascent'")
+    if method == "zoom" and np.isfinite(refine):
+        _refine(make, design, base, reg, u, val, stop, refine, tol)
     # the best start of each design
     found = np.full(D, -np.inf)
     np.maximum.at(found, design, val)
@@ -138,7 +154,25 @@ def maximize(make: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]], w
         X[axes] = lo + u[m] * width
         pose[dd] = X
     best = np.where(better, found, best)
+    if hills:
+        P = base.copy()
+        P[:, axes] = lo + u * width
+        ends[d_idx] = P.reshape(d_idx.size, k, -1)
+        return best, pose, ends
     return best, pose
+
+
+def _refine(make, design, base, reg, u, val, stop, above, tol):
+    """The zoom continued from ``tol`` down to :data:`FINE_TOL`, in place, for
+    the best start of each design whose value is in [above, stop)."""
+    order = np.lexsort((-val, design))                  # per design, its best start first
+    first = order[np.r_[True, design[order][1:] != design[order][:-1]]]
+    sel = first[np.isfinite(val[first]) & (val[first] >= above) & (val[first] < stop)]
+    if sel.size == 0:
+        return
+    uu, vv = u[sel].copy(), val[sel].copy()
+    _zoom(_Quantity(make, design[sel], base[sel], reg), uu, vv, 4.0 * tol, stop, FINE_TOL, FINE_LEVELS)
+    u[sel], val[sel] = uu, vv
 
 
 class _Quantity:

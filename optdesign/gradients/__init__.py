@@ -19,12 +19,10 @@ Two routes, one answer (:class:`Derivatives`):
   fallback where a mechanism has no AD route (described mechanisms, a free
   parameter the CasADi model does not read, a Jacobian convention it does not
   share): one evaluation of ``4 n + 1`` designs (steps h and 2h), the
-  difference of the two estimates kept as an error estimate (``fd_error``).
-  With the worst case over W on, the stencil is evaluated on the samples
-  only: the constraints on maxima over W take their values from the search
-  at the design itself and their derivatives from the differences of the
-  local quantity at the pose of each maximum (the envelope theorem), so a
-  derivative costs one search per design, not one per stencil design.
+  difference of the two estimates kept as an error estimate (``fd_error``);
+  the worst-case constraints from the local quantity at the poses of their
+  maxima, held (the envelope theorem), one singularity row per hill of W
+  (:mod:`.fd`).
 
 Global indices are the means over the reachable points (eq. 29, with the
 workspace's quadrature weights where it has them), so their derivative is the
@@ -36,17 +34,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import worstcase
-from .evaluate import _COND, Evaluator
-from .local_derivatives import local_derivative, solve as _solve
-from .mechanisms import symbolic_model
+from .. import worstcase
+from ..evaluate import _COND, Evaluator
+from ..local_derivatives import local_derivative, solve as _solve
+from ..mechanisms import symbolic_model
+from .fd import ENVELOPE_STEP, FD_STEP, fd_derivatives, smooth_singularity  # noqa: F401  (re-exported)
 
-__all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available"]
+__all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "smooth_singularity"]
 
 #: relative agreement the CasADi matrices must have with the mechanism's own
 CHECK_RTOL = 1e-8
-#: central-difference step, relative to the width of the design box
-FD_STEP = 2e-6
 
 
 @dataclass
@@ -67,7 +64,13 @@ class Derivatives:
     without bound near a singularity) and ``stroke_low`` / ``stroke_high`` are
     ``(lo + pad - q) / (hi - lo)`` and ``(q - hi + pad) / (hi - lo)`` (pad: the margin times hi - lo) at every point and
     actuator; an unreachable point counts as violated by 1.  On the fd route
-    they are the Evaluator's own (one value each, the maximum over W)."""
+    the strokes are one value each (the Evaluator's, of the maximum over W)
+    and the singularity :func:`smooth_singularity` of cond (the same
+    feasible set; next to a reach boundary, where the optimum of an index
+    often lies, it is linear in the distance to it where ``max_W cond /
+    limit - 1`` grows without bound): with the worst case on, one row per
+    hill of W the search climbed, largest first (the first the maximum over
+    W), else one row of the samples' maximum."""
 
     route: str
     values: dict
@@ -242,6 +245,32 @@ def _extra(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     return out, grads
 
 
+def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, req, limit: float, n: int,
+                      values_only: bool):
+    """The AD route's constraints ``log(cond / limit)`` (D, k) and their
+    derivatives (D, k, n) at the local maximum of each hill of W the search
+    climbed (``hills`` (D, k, dof)), largest first: where the largest moves
+    from one hill to another the maximum over W has a kink, and the polish
+    sees each hill before it becomes the largest.  An unreachable pose is a
+    violation (1); a hill not climbed an inactive row (-10, no derivative)."""
+    D, k, _ = hills.shape
+    c, g = np.full((D, k), -10.0), np.zeros((D, k, n))
+    for i in range(D):
+        on = np.flatnonzero(np.all(np.isfinite(hills[i]), axis=1))
+        if not on.size:
+            continue
+        di = {key: v[i:i + 1] for key, v in designs.items()}
+        mi = evaluator.mechanism(**{**evaluator.fixed, **{key: v[:, None] for key, v in di.items()}})
+        Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, hills[i][on], values_only)
+        with np.errstate(all="ignore"):
+            v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
+        good = np.all(np.isfinite(Qi[0]), axis=-1) & np.isfinite(v[0])
+        c[i, on] = np.where(good, np.log(v[0] / limit), 1.0)
+        g[i, on] = np.where(good[:, None], gv[0] / v[0][:, None], 0.0)
+    order = np.argsort(-c, axis=1, kind="stable")
+    return np.take_along_axis(c, order, axis=1), np.take_along_axis(g, order[..., None], axis=1)
+
+
 def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     designs = evaluator.designs(X)
     mech = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in designs.items()}})
@@ -270,24 +299,11 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
         cgrads = {"singularity": np.where(ok[..., None], local_grads[name] / local[name][..., None], 0.0)}
     if getattr(evaluator, "worst_case", False):       # and at each design's worst pose of the continuous W
         req = next(r for r in evaluator.requests_all if r.name == name)
-        poses = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
-                                      np.where(ok, local[name], np.inf))
-        c, g = [], []
-        for i in range(len(X)):
-            di = {k: v[i:i + 1] for k, v in designs.items()}
-            mi = evaluator.mechanism(**{**evaluator.fixed, **{k: v[:, None] for k, v in di.items()}})
-            Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, poses[i][None], values_only)
-            if not (np.all(np.isfinite(Qi)) and np.all(np.isfinite(Ji))):     # an unreachable worst pose: a violation
-                c.append(1.0)
-                g.append(np.zeros(cgrads["singularity"].shape[-1]))
-                continue
-            with np.errstate(all="ignore"):
-                v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
-                good = bool(np.all(np.isfinite(Qi)) and np.isfinite(v).all())
-                c.append(np.log(v[0, 0] / limit) if good else 1.0)
-                g.append(gv[0, 0] / v[0, 0] if good else np.zeros(gv.shape[-1]))
-        cons["singularity"] = np.concatenate([cons["singularity"], np.array(c)[:, None]], axis=1)
-        cgrads["singularity"] = np.concatenate([cgrads["singularity"], np.array(g)[:, None, :]], axis=1)
+        hills = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
+                                      np.where(ok, local[name], np.inf), limit, hills=True)
+        c, g = _hill_constraints(evaluator, designs, hills, req, limit, cgrads["singularity"].shape[-1], values_only)
+        cons["singularity"] = np.concatenate([cons["singularity"], c], axis=1)
+        cgrads["singularity"] = np.concatenate([cgrads["singularity"], g], axis=1)
     if evaluator.stroke_limits is not None:
         lo, hi = evaluator.stroke_limits
         D, N, a = Q.shape
@@ -305,85 +321,6 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     return Derivatives("ad", values, grads, cons, cgrads, reach.mean(axis=-1))
 
 
-def _fd(evaluator: Evaluator, X: np.ndarray, reason: str = "", values_only: bool = False):
-    """Central differences with steps h and 2h in one call of the Evaluator
-    (its compiled path where the mechanism has one)."""
-    D, n = X.shape
-    if values_only:
-        res = evaluator(X)
-        cons = {k: np.asarray(res["constraints"][k], dtype=float)[:, None]
-                for k in ("singularity", "stroke_low", "stroke_high") if k in res["constraints"]}
-        return Derivatives("fd", dict(res["values"]), {k: np.zeros((D, 0)) for k in res["values"]}, cons,
-                           {k: np.zeros((D, 1, 0)) for k in cons}, np.asarray(res["reachable_fraction"]), {}, reason)
-    h = FD_STEP * (evaluator.xu - evaluator.xl)
-    E = np.diag(h)
-    offs = np.concatenate([np.zeros((1, n)), E, -E, 2 * E, -2 * E])          # (4n + 1, n)
-    stencil = (X[:, None, :] + offs[None]).reshape(-1, n)
-    worst = bool(getattr(evaluator, "worst_case", False)) and hasattr(evaluator, "worst_poses")
-    # with the worst case over W: the maxima at X from the search, their
-    # derivatives at the poses found (the envelope theorem), the stencil
-    # evaluated on the samples only (no search per stencil design)
-    res = evaluator(stencil, worst_case=False) if worst else evaluator(stencil)
-
-    def diff(a):
-        """(value at X, derivative (h and 2h combined, Richardson), error estimate |g_h - g_2h| / 3)."""
-        a = np.asarray(a, dtype=float).reshape(D, 4 * n + 1)
-        g1 = (a[:, 1:n + 1] - a[:, n + 1:2 * n + 1]) / (2 * h)
-        g2 = (a[:, 2 * n + 1:3 * n + 1] - a[:, 3 * n + 1:]) / (4 * h)
-        return a[:, 0], (4 * g1 - g2) / 3, np.abs(g1 - g2) / 3
-
-    values, grads, err, cons, cgrads = {}, {}, {}, {}, {}
-    for k, v in res["values"].items():
-        values[k], grads[k], err[k] = diff(v)
-    for k in ("singularity", "stroke_low", "stroke_high"):
-        if k in res["constraints"]:
-            v, g, _ = diff(res["constraints"][k])
-            cons[k], cgrads[k] = v[:, None], g[:, None, :]
-    if worst:
-        _envelope(evaluator, X, stencil, diff, cons, cgrads)
-    reach = np.asarray(res["reachable_fraction"]).reshape(D, 4 * n + 1)[:, 0]
-    return Derivatives("fd", values, grads, cons, cgrads, reach, err, reason)
-
-
-def _envelope(evaluator: Evaluator, X: np.ndarray, stencil: np.ndarray, diff, cons: dict, cgrads: dict) -> None:
-    """The worst-case constraints of :func:`_fd` at the designs X (D, n): their
-    values from the Evaluator (the continuous search), their derivatives the
-    central differences over the stencil of the local quantity at the pose of
-    each maximum (for a design the search skips, infeasible on the samples
-    already: the samples' maximum and its differences, as computed)."""
-    base = evaluator(X)["constraints"]
-    where = evaluator.worst_poses(X)
-    if where is None:
-        return
-    D, n = X.shape
-    S = stencil.shape[0] // D
-    designs = evaluator.designs(stencil)
-    req = next(r for r in evaluator.requests_all if r.name == (evaluator._cond or _COND))
-    fs = worstcase.local_functions(evaluator.mechanism, evaluator.fixed, designs, req.kind, req.convention,
-                                   stroke=evaluator.stroke_limits is not None)
-    index = np.arange(D * S)
-    lo, hi = evaluator.stroke_limits or (0.0, 0.0)
-    pad = evaluator.margin * (hi - lo)
-    rows = {"singularity": ("cond", lambda v: np.where(np.isfinite(v), v / evaluator.limit - 1.0, np.nan)),
-            "stroke_high": ("q_max", lambda v: np.where(np.isfinite(v), v - (hi - pad), np.nan)),
-            "stroke_low": ("q_min_neg", lambda v: np.where(np.isfinite(v), lo + pad + v, np.nan))}
-    for k, (quantity, form) in rows.items():
-        if k not in cons:
-            continue
-        P = where["q_min" if quantity == "q_min_neg" else quantity]
-        known = np.all(np.isfinite(P), axis=1)
-        if not known.any():
-            continue
-        poses = np.repeat(np.where(known[:, None], P, 0.0), S, axis=0)[None]       # (1, D S, dof)
-        with np.errstate(all="ignore"):
-            v = form(np.asarray(fs[quantity](index)(poses), float)[0])
-            _, g, _ = diff(v)
-        c = np.asarray(base[k], float)
-        good = known & np.isfinite(c) & np.all(np.isfinite(g), axis=1)
-        cons[k] = np.where(known[:, None], c[:, None], cons[k])
-        cgrads[k] = np.where(good[:, None, None], g[:, None, :], np.where(known[:, None, None], 0.0, cgrads[k]))
-
-
 def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values_only: bool = False) -> Derivatives:
     """Global index values and derivatives and the smooth constraints at
     designs X (D, n_free): the AD route where the mechanism has one
@@ -397,5 +334,5 @@ def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values
             return got
         if route == "ad":
             raise ValueError(f"no AD route for {evaluator.mechanism.name}: {got}")
-        return _fd(evaluator, X, got, values_only)
-    return _fd(evaluator, X, "asked for", values_only)
+        return Derivatives(**fd_derivatives(evaluator, X, got, values_only))
+    return Derivatives(**fd_derivatives(evaluator, X, "asked for", values_only))
