@@ -17,7 +17,10 @@ they must not depend on the run's seed.  This stage finds them without one:
    box) of it, its :data:`LOCAL_STARTS` best feasible designs polished;
 5. each polished design snapped onto the bounds it lies within :data:`SNAP`
    (unit box) of, and the snapped design taken when it is feasible and no
-   worse (to :data:`SNAP_LOSS` relative): a design on its active bounds lies exactly on them.
+   worse (to :data:`SNAP_LOSS` relative): a design on its active bounds lies exactly on them;
+6. where SLSQP left the best design short of a first-order point (on a
+   singularity wall next to a reach boundary it stalls), the walk of
+   :mod:`.wall` from it, at most :data:`WALK_ITERATIONS` steps.
 
 The stage's ``observed`` extremes (the best of the scan and of the polished
 designs) are folded with the pre-scan's and the single-objective stages'
@@ -31,10 +34,11 @@ import math
 import numpy as np
 from scipy.stats import qmc
 
-from .polish import distinct_best, polish_designs, term_value
+from .polish import TOLERANCE, distinct_best, optimality, polish_designs, term_value
 from .problem import DesignProblem, index_term
 from .prescan import evaluate_batches
 from .refine import observed
+from .wall import walk_design
 
 __all__ = ["scan_size", "extremes_scan", "run_extremes", "snap", "evaluate_batches", "SNAP"]
 
@@ -45,6 +49,8 @@ SNAP_LOSS = 1e-9
 #: the local scan around an extreme's best polished design: its half-width
 #: (unit box), its designs and the starts polished from it
 LOCAL_WIDTH, LOCAL_SCAN, LOCAL_STARTS = 0.05, 256, 2
+#: most steps of the walk along the singularity wall (:mod:`.wall`)
+WALK_ITERATIONS = 300
 
 
 def scan_size(n: int) -> int:
@@ -117,6 +123,28 @@ def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
     return _polished(evaluator, term, S) if len(S) else ([], [])
 
 
+def _walked(evaluator, term, ends: list) -> tuple[list, list]:
+    """The walk along the singularity wall (:mod:`.wall`) from the best of
+    ``ends`` when SLSQP left it short of a first-order point (its KKT
+    residual above :data:`~.polish.TOLERANCE`, or not measurable): the walk's
+    end when it is better."""
+    if not ends:
+        return [], []
+    E = np.array(ends)
+    vals, _, feas = evaluate_batches(evaluator, E)
+    f = np.where(feas, np.asarray(term_value(term, vals), dtype=float), np.inf)
+    if not np.isfinite(f).any():
+        return [], []
+    x0 = E[int(np.argmin(f))]
+    problem = DesignProblem(evaluator, [term])
+    opt = optimality(problem, x0, evaluator.free)
+    if opt["measurable"] and opt["converged"]:
+        return [], []
+    got = walk_design(problem, x0, WALK_ITERATIONS)
+    run = {"start": x0.tolist(), "start_value": float(np.min(f)), "snapped": False, "message": "wall walk", **got}
+    return ([np.asarray(got["end"])] if got["end_value"] < np.min(f) else []), [run]
+
+
 def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
     """The stage result: the scan's size and feasible count, per weighted
     index and sense the polish runs, and ``observed`` (the extremes of every
@@ -136,6 +164,8 @@ def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
                 continue
             got, rec = _polished(evaluator, term, S)
             more, rec2 = _local_round(evaluator, term, got)
+            got, rec = got + more, rec + rec2
+            more, rec2 = _walked(evaluator, term, got)
             got, rec = got + more, rec + rec2
             found += got
             labels += ["multistart"] * len(got)
