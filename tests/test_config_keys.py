@@ -33,7 +33,7 @@ DOCS = ROOT / "docs" / "config.md"
 def test_allowed_keys_come_from_the_table():
     assert OPT_KEYS == {k.name.split(".")[0] for k in OPTIMIZER.keys}
     assert OPTIMIZER.allowed("pareto") == {"algorithms", "population", "generations"}
-    assert OPTIMIZER.allowed("extremes") == {"starts", "scan"}
+    assert OPTIMIZER.allowed("extremes") == {"starts", "scan", "walk"}
     assert WS_KEYS == {k.name for k in WORKSPACE.keys} and CHECKS_KEYS == {k.name for k in CHECKS.keys}
     assert TOP_KEYS == {k.name for k in TOP.keys}
 

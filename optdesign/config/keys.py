@@ -319,6 +319,10 @@ OPTIMIZER = Section("optimizer", (
     Key("extremes.scan", "integer", 4096, check=Interval(1, 1_000_000),
         doc="designs of the multi-start's fixed scan of the box (Sobol scrambled with the fixed seed 0, rounded "
             "up to a power of two; the corners and centre are added when there are at most a quarter as many)"),
+    Key("extremes.walk", "integer", 300, check=Interval(0, 100_000),
+        doc="most steps of the walk along the singularity wall that finishes an extreme where SLSQP stops short "
+            "of a first-order point (optdesign/optimize/wall.py; each step one derivative and a few evaluations "
+            "of four trial designs); 0: no walk"),
     Key("seed", "integer", 1, check=_SEED, type_doc="integer 0 – 2³²−1", doc="random seed"),
     Key("weights", "mapping", dict, custom=True, annotation="dict[str, float]", type_doc="`{INDEX: number ≥ 0}`",
         default_doc="1 for every index", invalid=({"dynamic": -1},), example={"dynamic": 1, "stiffness": 0},

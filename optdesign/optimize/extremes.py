@@ -20,7 +20,7 @@ they must not depend on the run's seed.  This stage finds them without one:
    worse (to :data:`SNAP_LOSS` relative): a design on its active bounds lies exactly on them;
 6. where SLSQP left the best design short of a first-order point (on a
    singularity wall next to a reach boundary it stalls), the walk of
-   :mod:`.wall` from it, at most :data:`WALK_ITERATIONS` steps.
+   :mod:`.wall` from it, at most ``optimizer.extremes.walk`` steps.
 
 The stage's ``observed`` extremes (the best of the scan and of the polished
 designs) are folded with the pre-scan's and the single-objective stages'
@@ -49,7 +49,7 @@ SNAP_LOSS = 1e-9
 #: the local scan around an extreme's best polished design: its half-width
 #: (unit box), its designs and the starts polished from it
 LOCAL_WIDTH, LOCAL_SCAN, LOCAL_STARTS = 0.05, 256, 2
-#: most steps of the walk along the singularity wall (:mod:`.wall`)
+#: most steps of the walk along the singularity wall (:mod:`.wall`), ``optimizer.extremes.walk``'s default
 WALK_ITERATIONS = 300
 
 
@@ -123,12 +123,12 @@ def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
     return _polished(evaluator, term, S) if len(S) else ([], [])
 
 
-def _walked(evaluator, term, ends: list) -> tuple[list, list]:
+def _walked(evaluator, term, ends: list, steps: int) -> tuple[list, list]:
     """The walk along the singularity wall (:mod:`.wall`) from the best of
     ``ends`` when SLSQP left it short of a first-order point (its KKT
     residual above :data:`~.polish.TOLERANCE`, or not measurable): the walk's
     end when it is better."""
-    if not ends:
+    if not ends or steps <= 0:
         return [], []
     E = np.array(ends)
     vals, _, feas = evaluate_batches(evaluator, E)
@@ -140,12 +140,12 @@ def _walked(evaluator, term, ends: list) -> tuple[list, list]:
     opt = optimality(problem, x0, evaluator.free)
     if opt["measurable"] and opt["converged"]:
         return [], []
-    got = walk_design(problem, x0, WALK_ITERATIONS)
+    got = walk_design(problem, x0, steps)
     run = {"start": x0.tolist(), "start_value": float(np.min(f)), "snapped": False, "message": "wall walk", **got}
     return ([np.asarray(got["end"])] if got["end_value"] < np.min(f) else []), [run]
 
 
-def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
+def run_extremes(evaluator, names, starts: int, n: int, on_batch=None, walk: int = WALK_ITERATIONS) -> dict:
     """The stage result: the scan's size and feasible count, per weighted
     index and sense the polish runs, and ``observed`` (the extremes of every
     index over the scan and the polished designs)."""
@@ -165,7 +165,7 @@ def run_extremes(evaluator, names, starts: int, n: int, on_batch=None) -> dict:
             got, rec = _polished(evaluator, term, S)
             more, rec2 = _local_round(evaluator, term, got)
             got, rec = got + more, rec + rec2
-            more, rec2 = _walked(evaluator, term, got)
+            more, rec2 = _walked(evaluator, term, got, walk)
             got, rec = got + more, rec + rec2
             found += got
             labels += ["multistart"] * len(got)

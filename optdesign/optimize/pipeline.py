@@ -175,7 +175,8 @@ def _extremes_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, seed: int
     prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
     try:
         res = run_extremes(evaluator, [k for k in cfg.indices if opt.weights.get(k, 0) > 0], opt.extremes_starts,
-                           opt.extremes_scan, on_batch=lambda k, n: prog.update(min(k, total), None))
+                           opt.extremes_scan, on_batch=lambda k, n: prog.update(min(k, total), None),
+                           walk=opt.extremes_walk)
         prog.update(total, res)
     finally:
         prog.finish()
