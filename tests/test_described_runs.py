@@ -20,7 +20,7 @@ def _tiny(tmp_path, name):
     # the worst case over W on, as shipped: the compiled pose search (Mechanism.local_values_at); the
     # Gough-Stewart's seed-free extremes multi-start is off (each of its SLSQP trial designs runs a 6-D
     # search: 75 of the 95 s of one tiny run, measured), the Delta's runs with one start and at most 10
-    # steps of the walk along the singularity wall (300, as shipped: 208 s of one tiny run, measured)
+    # steps of the walk along the singularity wall (300 as shipped)
     starts = 0 if name.startswith("gough") else 1
     cfg["optimizer"].update(population=6, generations=2, elites=1, polish=1,
                             extremes={"starts": starts, "scan": 256, "walk": 10},

@@ -18,9 +18,9 @@ ITERATIONS = 30
 #: the search of a start ends when its step (unit coordinates of W) is below this
 TOL = 5e-4
 #: where the value decides feasibility, the best start zooms on down to this (unit coordinates of W) ...
-FINE_TOL = 1e-8
+FINE_TOL = 1e-10
 #: ... in at most this many more levels
-FINE_LEVELS = 40
+FINE_LEVELS = 60
 #: the zoom search's neighbours: all 3^f - 1 up to this many free axes, the 2 f along the axes beyond
 FULL_GRID = 3
 #: finite-difference step (unit coordinates of W)
