@@ -99,21 +99,29 @@ def _polished(evaluator, term, starts: np.ndarray) -> tuple[list, list]:
     return out, got["runs"]
 
 
+def _best(evaluator, term, ends: list):
+    """(design, value) of the best feasible of ``ends`` by ``term``, or None."""
+    if not ends:
+        return None
+    E = np.array(ends)
+    vals, _, feas = evaluate_batches(evaluator, E)
+    f = np.where(feas, np.asarray(term_value(term, vals), dtype=float), np.inf)
+    if not np.isfinite(f).any():
+        return None
+    return E[int(np.argmin(f))], float(np.min(f))
+
+
 def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
     """A second round around the best of ``ends``: a fixed Sobol cloud (seed 0)
     in the box of half-width :data:`LOCAL_WIDTH` (unit box) around it, its
     :data:`LOCAL_STARTS` best feasible designs polished.  The feasible set
     near the singularity constraint is broken into narrow pockets; the next
     pocket is often a little better."""
-    if not ends:
-        return [], []
-    E = np.array(ends)
-    vals, _, feas = evaluate_batches(evaluator, E)
-    f = np.where(feas, np.asarray(term_value(term, vals), dtype=float), np.inf)
-    if not np.isfinite(f).any():
+    best = _best(evaluator, term, ends)
+    if best is None:
         return [], []
     xl, w = evaluator.xl, evaluator.xu - evaluator.xl
-    c = (E[int(np.argmin(f))] - xl) / w
+    c = (best[0] - xl) / w
     U = qmc.Sobol(d=len(c), scramble=True, seed=0).random_base2(int(math.log2(LOCAL_SCAN)))
     U = np.clip(c + LOCAL_WIDTH * (2.0 * U - 1.0), 0.0, 1.0)
     X = xl + w * U
@@ -128,21 +136,17 @@ def _walked(evaluator, term, ends: list, steps: int) -> tuple[list, list]:
     ``ends`` when SLSQP left it short of a first-order point (its KKT
     residual above :data:`~.polish.TOLERANCE`, or not measurable): the walk's
     end when it is better."""
-    if not ends or steps <= 0:
+    best = _best(evaluator, term, ends) if steps > 0 else None
+    if best is None:
         return [], []
-    E = np.array(ends)
-    vals, _, feas = evaluate_batches(evaluator, E)
-    f = np.where(feas, np.asarray(term_value(term, vals), dtype=float), np.inf)
-    if not np.isfinite(f).any():
-        return [], []
-    x0 = E[int(np.argmin(f))]
+    x0, f0 = best
     problem = DesignProblem(evaluator, [term])
     opt = optimality(problem, x0, evaluator.free)
     if opt["measurable"] and opt["converged"]:
         return [], []
     got = walk_design(problem, x0, steps)
-    run = {"start": x0.tolist(), "start_value": float(np.min(f)), "snapped": False, "message": "wall walk", **got}
-    return ([np.asarray(got["end"])] if got["end_value"] < np.min(f) else []), [run]
+    run = {"start": x0.tolist(), "start_value": f0, "snapped": False, "message": "wall walk", **got}
+    return ([np.asarray(got["end"])] if got["end_value"] < f0 else []), [run]
 
 
 def run_extremes(evaluator, names, starts: int, n: int, on_batch=None, walk: int = WALK_ITERATIONS) -> dict:
