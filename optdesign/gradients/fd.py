@@ -174,9 +174,6 @@ def _envelope(evaluator: Evaluator, X: np.ndarray, cons: dict, cgrads: dict) -> 
         cons["singularity"] = np.where(keep, rows, np.concatenate([cons["singularity"], rows[:, 1:]], axis=1))
         cgrads["singularity"] = np.where(keep[..., None], g,
                                          np.concatenate([cgrads["singularity"], g[:, 1:]], axis=1))
-    elif np.all(np.isfinite(where["cond"]), axis=1).any():
-        _held(evaluator, X, h, where["cond"], lambda v: smooth_singularity(v, evaluator.limit), "cond",
-              _singularity(base, evaluator.limit), "singularity", cons, cgrads)
     if evaluator.stroke_limits is None:
         return
     lo, hi = evaluator.stroke_limits
@@ -188,17 +185,17 @@ def _envelope(evaluator: Evaluator, X: np.ndarray, cons: dict, cgrads: dict) -> 
 
 
 def _held(evaluator, X, h, P, form, quantity, at_x, k, cons, cgrads) -> None:
-    """One constraint row k from the local ``quantity`` at the held poses P (D, dof)."""
+    """One stroke constraint row k from the local ``quantity`` at the held poses P (D, dof)."""
     D, n = X.shape
     known = np.all(np.isfinite(P), axis=1)
     if not known.any():
         return
     S = 4 * n + 1
-    fs = _local(evaluator, _stencil(X, h), stroke=quantity != "cond")
+    fs = _local(evaluator, _stencil(X, h), stroke=True)
     poses = np.repeat(np.where(known[:, None], P, 0.0), S, axis=0)[None]       # (1, D S, dof)
     with np.errstate(all="ignore"):
         raw = np.asarray(fs[quantity](np.arange(D * S))(poses), float)[0]
-        v = np.where(np.isfinite(raw), form(raw), np.nan) if quantity != "cond" else form(raw)
+        v = np.where(np.isfinite(raw), form(raw), np.nan)
         _, g, _ = _diff(v, D, h)
     c = np.asarray(at_x, float)
     good = known & np.isfinite(c) & np.all(np.isfinite(g), axis=1)
