@@ -114,8 +114,10 @@ def test_nothing_imports_the_cli():
 
 
 @pytest.mark.parametrize("layer, allowed", [
-    # the bottom of the flow: a mechanism knows geometry and physics only
-    ("optdesign.mechanisms", ()),
+    # the one compiled engine: plain arrays in, statistics out; it knows no mechanism
+    ("optdesign.engine", ()),
+    # the bottom of the flow: a mechanism knows geometry and physics only (and packs itself for the engine)
+    ("optdesign.mechanisms", ("optdesign.engine",)),
     # adaptive cubature of the mean over W: plain numerics on a region spec, below the workspace that samples it
     ("optdesign.cubature", ()),
     ("optdesign.workspace", ("optdesign.cubature",)),
@@ -160,7 +162,7 @@ def test_layers_import_only_what_lies_below(layer, allowed):
 
 def test_no_config_below_evaluate():
     for layer in ("optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature", "optdesign.indices", "optdesign.worstcase", "optdesign.statistics", "optdesign.linalg",
-                  "optdesign.fast"):
+                  "optdesign.fast", "optdesign.engine"):
         for name, path in MODULES:
             if _under(name, layer):
                 assert not any(_under(i, "optdesign.config") for i in _imports(path)), name

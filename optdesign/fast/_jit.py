@@ -18,6 +18,10 @@ from numba.extending import intrinsic
 #: cached, numpy's error model (division by zero gives inf/NaN, no exception),
 #: no fast-math: the kernels' results must not depend on the compiler's choices
 NJIT = dict(cache=True, error_model="numpy", fastmath=False)
+#: the same for the routines compiled into the kernels that call them
+#: (``numba.extending.register_jitable``: no machine code of their own, so
+#: they cost one compilation, in their caller, not two)
+JITABLE = dict(error_model="numpy", fastmath=False)
 
 
 @intrinsic

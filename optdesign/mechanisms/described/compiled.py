@@ -22,31 +22,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...fast import KernelModule, enabled
+from ... import engine
+from ...engine import kernel_module as kernels
+from ...engine import plan
+from ...engine import layout as K
+from ...fast import enabled
 from ...fast.merge import add_points
-from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, kernel_value, select, singular_values
+from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, select, singular_values
 from ..base import IndexRequest
 
 __all__ = ["IndexRequest", "global_statistics", "local_values_at", "reach_codes", "plan", "kernels", "pack"]
-
-KERNELS = KernelModule("optdesign.mechanisms.described._kernels")
-
-
-def kernels():
-    """The kernel module, or None if numba is not usable here."""
-    return KERNELS.get()
-
-
-def plan(requests, dof: int, has_dynamics: bool):
-    """[(name, kernel value, factor)] for the requests the kernel computes (the
-    others are left to the numpy path): the ids and factors of
-    optdesign.formulas.kernel_value."""
-    out = []
-    for r in requests:
-        kv = kernel_value(r.kind, r.convention, r.options, dof)
-        if kv is not None and (kv[0] != DYN or has_dynamics):
-            out.append((r.name,) + kv)
-    return out
 
 
 _PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
@@ -56,8 +41,6 @@ _RATE_COLUMN = {"x": 0, "y": 1, "z": 2, "roll": 6, "pitch": 7, "yaw": 5}
 
 def pack(mech):
     """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
-    from . import _kernels as K
-
     C = mech.constants
     shape = C.shape
     if len(shape) > 2 or (len(shape) == 2 and shape[1] != 1):
@@ -114,7 +97,7 @@ def shape_codes(mech):
 
 def kernel_spec(codes):
     """The kernel's compile-time choices (a KernelSpec) for pack's codes."""
-    from ._codegen import KernelSpec
+    from ...engine.codegen import KernelSpec
 
     ptype, ct, kind, _ = codes
     return KernelSpec(tuple(ct), bool(np.any(kind != 2)), ptype != 0)
@@ -122,7 +105,7 @@ def kernel_spec(codes):
 
 def kernel_source(mech, title: str) -> str:
     """The generated routines of the kernel for mech's shape as a module's source."""
-    from ._codegen import module_source
+    from ...engine.codegen import module_source
 
     return module_source(kernel_spec(shape_codes(mech)), title)
 
@@ -133,7 +116,6 @@ def frame_rows(mech, X, fixed):
     shaped as the numpy path's design axis: the origin from the pose (0 for a
     rotation pose, whose centre the kernel adds), R (not for translation
     poses) and the entries of the Euler columns (rotation and spatial poses)."""
-    from . import _kernels as K
     from .poses import frames
 
     spec = mech.pose_spec
@@ -162,31 +144,25 @@ _FR_BUDGET = 4_000_000
 _NO_KEEP = np.zeros((0, 0, 0))
 
 
-def _run_kernel(K, mech, codes, L, F, X, want):
+def _run_kernel(mech, codes, L, F, X, want):
     """The kernel's (stats, counts, codes) for every design: one call when the
     frames are the same for all designs (a rotation pose's fixed angles do not
     vary), else per group of designs with their own frames."""
-    ptype, ct, kind, branch = codes
-    nt, cspec = kernel_spec(codes).numba_args()
     N = X.shape[0]
     flags = _flags(want, codes)
-    args = (nt, cspec, ptype, ct, kind, branch)
-    import numba
-
-    workers = numba.get_num_threads()
     fix = F[:, K.FFIX:K.FFIX + 3]
     D = F.shape[0]
     spec = mech.pose_spec
     if spec.type != "rotation" or len(spec.roles) == 3 or np.all(fix == fix[0]):
         FR = frame_rows(mech, X, fix[:1, None, :])
-        return KERNELS.guarded(K.summary, *args, L, F, FR, N, want, flags, workers, _NO_KEEP)
+        return engine.run(codes, L, F, FR, N, want, flags, spec=engine.tier(kernel_spec(codes)))
     step = max(1, _FR_BUDGET // (K.NFR * max(1, X.shape[0])))
     parts = []
     for lo in range(0, D, step):
         sl = slice(lo, min(D, lo + step))
         FR = frame_rows(mech, X, fix[sl, None, :])
-        res = KERNELS.guarded(K.summary, *args, np.ascontiguousarray(L[sl]), np.ascontiguousarray(F[sl]), FR, N,
-                              want, flags, workers, _NO_KEEP)
+        res = engine.run(codes, np.ascontiguousarray(L[sl]), np.ascontiguousarray(F[sl]), FR, N, want, flags,
+                         spec=engine.tier(kernel_spec(codes)))
         if res is None:
             return None
         parts.append(res)
@@ -202,7 +178,7 @@ def _local_numpy(kind, conv, opts, J, svJ, svM):
     return row.value(Operands(J=J, svJ=svJ, svM=svM), c, a)
 
 
-def _mass_at(K, mech, codes, L, F, X, dd, jj):
+def _mass_at(KM, mech, codes, L, F, X, dd, jj):
     """The kernel's M_p (K, n, n) at the pairs (design dd[i], point jj[i]), dd
     sorted: each design's points in blocks of their own."""
     ptype, ct, kind, branch = codes
@@ -217,7 +193,7 @@ def _mass_at(K, mech, codes, L, F, X, dd, jj):
         frs.append(np.concatenate([fr, np.zeros((nb * K.BLK - (b - a), fr.shape[1]))]))
         nbs.append(nb)
     bd = np.repeat(dd[starts].astype(np.int64), nbs)
-    Mp = K.mass_blocks(*kernel_spec(codes).numba_args(), ptype, ct, kind, branch, L, F, np.concatenate(frs), bd)
+    Mp = KM.mass_blocks(ptype, ct, kind, branch, L, F, np.concatenate(frs), bd, None)
     Mp = Mp.reshape(-1, n * n, K.BLK).transpose(0, 2, 1).reshape(-1, n, n)
     offs = np.cumsum([0] + nbs[:-1]) * K.BLK
     rows = np.concatenate([o + np.arange(b - a) for a, b, o in zip(starts, ends, offs)])
@@ -250,7 +226,7 @@ def _take(C, dd):
     return type(C)(**out)
 
 
-def _numpy_values(mech, X, dd, jj, entries, K=None, packed=None):
+def _numpy_values(mech, X, dd, jj, entries, KM=None, packed=None):
     """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i]):
     J from the numpy path itself; for the dynamic index M = J^-T M_p with the
     kernel's M_p (packed: pack(mech)) where the kernel is given."""
@@ -269,10 +245,10 @@ def _numpy_values(mech, X, dd, jj, entries, K=None, packed=None):
     Xk = X[jj]
     dyn = any(e[0] == "dynamic" for e in entries)
     with np.errstate(all="ignore"):
-        if dyn and K is not None:
+        if dyn and KM is not None:
             J = sub.index_matrices(Xk, {"J"})["J"]
             codes, L, F, _ = packed
-            M = _solve_T(J, _mass_at(K, mech, codes, L, F, X, dd, jj))
+            M = _solve_T(J, _mass_at(KM, mech, codes, L, F, X, dd, jj))
         else:
             mats = sub.index_matrices(Xk, {"J"} | ({"M"} if dyn else set()))
             J, M = mats["J"], mats.get("M")
@@ -295,8 +271,8 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != mech.dof:
         return None
-    K = kernels()
-    if K is None:
+    KM = kernels()
+    if KM is None:
         return None
     pl = plan(requests, mech.dof, mech.description.has_dynamics)
     if not pl and not want_max_cond:
@@ -308,7 +284,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     rows = sorted({v for _, v, _ in pl} | ({TWO} if want_max_cond else set()))
     want = np.zeros(NVAL, dtype=np.bool_)
     want[rows] = True
-    res = _run_kernel(K, mech, codes, L, F, X, want)
+    res = _run_kernel(mech, codes, L, F, X, want)
     if res is None:
         return None
     stats, counts, cd = res
@@ -322,7 +298,7 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
         entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
         if want_max_cond:
             entries.append(("isotropy", "two_norm", {}))
-        extra = _numpy_values(mech, X, dd, jj, entries, K, (codes, L, F, D))
+        extra = _numpy_values(mech, X, dd, jj, entries, KM, (codes, L, F, D))
         st, counts = _merge(st, counts, extra, dd)
     ok = counts > 0
     summary = {}
@@ -355,8 +331,8 @@ def local_values_at(mech, requests, X):
     if not enabled():
         return None
     X = np.asarray(X, dtype=float)
-    K = kernels()
-    if K is None or X.ndim != 3 or X.shape[2] != mech.dof or X.shape[1] == 0:
+    KM = kernels()
+    if KM is None or X.ndim != 3 or X.shape[2] != mech.dof or X.shape[1] == 0:
         return None
     pl = plan(requests, mech.dof, mech.description.has_dynamics)
     if len(pl) != len(requests):
@@ -378,10 +354,8 @@ def local_values_at(mech, requests, X):
     want = np.zeros(NVAL, dtype=np.bool_)
     want[sorted({v for _, v, _ in pl})] = True
     keep = np.zeros((D, NVAL, n_pts))
-    import numba
-
-    res = KERNELS.guarded(K.summary, *kernel_spec(codes).numba_args(), ptype, ct, kind, branch, L, F,
-                          np.ascontiguousarray(FR), n_pts, want, _flags(want, codes), numba.get_num_threads(), keep)
+    res = engine.run(codes, L, F, np.ascontiguousarray(FR), n_pts, want, _flags(want, codes), keep,
+                     spec=engine.tier(kernel_spec(codes)))
     if res is None:
         return None
     cd = res[2]
@@ -392,7 +366,7 @@ def local_values_at(mech, requests, X):
     if len(dd):
         byname = {r.name: r for r in requests}
         entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
-        extra = _numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, K, (codes, L, F, D))
+        extra = _numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, KM, (codes, L, F, D))
         for i, (name, _, _) in enumerate(pl):
             out[name][dd, kk] = extra[i]
     reach = cd != 0
@@ -403,8 +377,7 @@ def local_values_at(mech, requests, X):
 
 def reach_codes(mech, X) -> np.ndarray:
     """The kernel's reach codes (D, N): 0 unreachable, 1 reachable, 2 left to the numpy path."""
-    K = kernels()
     codes, L, F, D = pack(mech)
     want = np.zeros(NVAL, dtype=np.bool_)
     want[FRO] = True
-    return _run_kernel(K, mech, codes, L, F, np.asarray(X, dtype=float), want)[2]
+    return _run_kernel(mech, codes, L, F, np.asarray(X, dtype=float), want)[2]

@@ -9,7 +9,7 @@ and of ``optdesign/formulas.py`` (whose value ids are imported here)
 """
 from __future__ import annotations
 
-from ...formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # noqa: F401 (the value ids)
+from ..formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # noqa: F401 (the value ids)
 
 #: points per task: the unit of the reductions and of parallel work
 CHUNK = 256
@@ -37,6 +37,8 @@ NFR = 17
 FR_ROWS = (3, 12, 17, 17)
 #: pose-column kinds (ct): 0..5 a twist component; roll's and pitch's Euler columns
 CT_ROLL, CT_PITCH = 6, 7
+#: the largest size n (legs = pose coordinates) of the engine: a pose has at most six coordinates
+NMAX = 6
 #: rows of the per-leg scratch (n, NLG BLK)
 GR, GG, GK, GAL, GGA, GDE = 0, 3, 9, 15, 16, 17
 NLG = 18
@@ -54,3 +56,8 @@ NB = 10
 NEWTON = 5
 NEWTON_DYN = 5
 TAU = 1e-13
+#: scratch rows of the dense routines (rows of BLK): the most of eigen's
+#: tridiagonalization (the Gram matrix n n, six vectors of NMAX rows and six
+#: single rows), mass.dyn (B s_b: 6 n; M_p, P and D: n n each) and inverse's
+#: QR (R: n n and four rows)
+SROWS = max(NMAX * NMAX + 6 * NMAX + 6, 6 * NMAX + 3 * NMAX * NMAX, NMAX * NMAX + 4)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._layout import BA, BLK, BS, BW, CT_ROLL, FRE, GDE, GGA, NEWTON, NEWTON_DYN
+from .layout import BA, BLK, BS, BW, CT_ROLL, FRE, GDE, GGA, NEWTON, NEWTON_DYN
 
 #: the names the generated code uses besides its arguments (the kernel binds them)
 GLOBALS = ("math", "np", "_u", "BLK", "TAU", "VDET", "VI2", "VBETA", "VV0", "VMASK", "_lmax3_point", "_bisect_flagged")
@@ -381,7 +381,7 @@ def module_source(spec: KernelSpec, title: str) -> str:
     """The generated routines for spec as one module (``optdesign kernel-source``):
     a header that says what they are for (``title``: the mechanism and config),
     the names they use, then the routines."""
-    from . import _layout
+    from . import layout as _layout
 
     rs = routines(spec)
     hand = "" if "_inverse" in rs else "; _inverse is hand-written for n <= 3 (_inverse_small)"
@@ -394,6 +394,7 @@ def module_source(spec: KernelSpec, title: str) -> str:
             "# matrices are rows of BLK points: entry (r, c) of point j at [(r n + c) BLK + j].",
             f"# Routines: {', '.join(rs)}{hand}.",
             "import math", "", "from numba import uint64 as _u", "",
-            "from optdesign.mechanisms.described._kernels import _bisect_flagged, _lmax3_point", ""]
+            "from optdesign.engine.kernels import _bisect_nt as _bisect_flagged",
+            "from optdesign.fast._jit import lambda_max_psd as _lmax3_point", ""]
     head += [f"{k} = {getattr(_layout, k)!r}" for k in GLOBALS if hasattr(_layout, k)]
     return "\n".join(head) + "\n" + "".join(f"\n\n{src}" for src in rs.values())

@@ -1,0 +1,146 @@
+"""The one compiled engine of every mechanism with a compiled path.
+
+A mechanism answers the seams ``global_statistics`` and ``local_values_at``
+through four steps, the engine's protocol:
+
+* **plan** (:func:`plan`): which of the requested local indices the kernel
+  computes, as ids of the one table of local values :mod:`optdesign.formulas`
+  (with the factor each request scales its value by);
+* **pack** (the mechanism's): its shape as codes (pose type, pose-column
+  kinds, leg kinds and branches) and its per-design constants as arrays
+  (``L`` per leg, ``F`` per design; :mod:`.layout`), plus the frame data of
+  the points;
+* **kernel** (:func:`run`): :mod:`.kernels`, compiled once per machine for
+  every shape (the size n and the kinds are data), run on the caller's
+  threads;
+* **merge** (:mod:`optdesign.fast.merge`): the points the kernel leaves to
+  the numpy path (ill-conditioned, not finite) are evaluated there and
+  merged into the statistics.
+
+numba is imported only when a kernel is first run.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..fast import KernelModule
+from ..formulas import DYN, NVAL, kernel_value
+
+__all__ = ["KERNELS", "kernel_module", "plan", "run", "workers", "specialize", "tier", "TIER_VAR"]
+
+KERNELS = KernelModule("optdesign.engine.kernels")
+
+
+def kernel_module():
+    """The kernel module, or None if numba is not usable here."""
+    return KERNELS.get()
+
+
+def plan(requests, dof: int, has_dynamics: bool):
+    """[(name, kernel value, factor)] for the requests the kernel computes (the
+    others are left to the numpy path): the ids and factors of
+    optdesign.formulas.kernel_value."""
+    out = []
+    for r in requests:
+        kv = kernel_value(r.kind, r.convention, r.options, dof)
+        if kv is not None and (kv[0] != DYN or has_dynamics):
+            out.append((r.name,) + kv)
+    return out
+
+
+#: the environment variable that chooses the routines: ``generic`` (one
+#: compiled code for every shape), ``specialized`` (the shape's generated
+#: code, compiled once per shape) or ``auto`` (the default: see :func:`tier`)
+TIER_VAR = "OPTDESIGN_KERNEL"
+
+#: shapes (KernelSpec) that run on their specialized routines in this process (see :func:`specialize`)
+_SPECIALIZED: set = set()
+
+
+def specialize(spec) -> None:
+    """Run the shape ``spec`` on its specialized routines from now on in this
+    process (a long computation, such as an optimization run, whose kernel
+    time outweighs compiling them once per machine)."""
+    _SPECIALIZED.add(spec)
+
+
+def tier(spec):
+    """The spec to pass to :func:`run` for the shape ``spec``: itself where its
+    specialized routines are chosen, else None (the generic ones)."""
+    import os
+
+    mode = os.environ.get(TIER_VAR, "auto").strip().lower()
+    if mode == "specialized":
+        return spec
+    if mode == "generic":
+        return None
+    return spec if spec in _SPECIALIZED else None
+
+
+def workers() -> int:
+    """The number of threads a kernel call runs on: numba's thread count
+    (``numba.set_num_threads`` sets it, ``NUMBA_NUM_THREADS`` bounds it)."""
+    import numba
+
+    return int(numba.get_num_threads())
+
+
+_POOL = None
+
+
+def _pool(nw):
+    global _POOL
+    from concurrent.futures import ThreadPoolExecutor
+
+    if _POOL is None or _POOL._max_workers < nw:
+        _POOL = ThreadPoolExecutor(max_workers=nw, thread_name_prefix="optdesign-engine")
+    return _POOL
+
+
+def run(codes, L, F, FR, N, want, flags, keep=None, spec=None):
+    """The kernel over every design of L, F at the N points of the frame data
+    FR: (stats (D, NVAL, 4), counts (D,), reach codes (D, N) int8), or None if
+    the kernel cannot run here (a warning says why once).  keep (D, NVAL, N):
+    receives every point's wanted values too; spec: a KernelSpec (the shape's
+    generated routines, :mod:`.codegen`, compiled once per shape) or None (the
+    generic ones, compiled once for every shape; the same results).  The tasks (CHUNK points of one
+    design) are shared among :func:`workers` threads in a fixed pattern, each
+    task's results its own, so results do not depend on the thread count."""
+    K = kernel_module()
+    if K is None:
+        return None
+    from .layout import CHUNK
+
+    ptype, ct, kind, branch = codes
+    D = L.shape[0]
+    nch = (N + CHUNK - 1) // CHUNK
+    out_codes = np.zeros((D, N), dtype=np.int8)
+    part = np.zeros((D, nch, NVAL, 4))
+    cnt = np.zeros((D, nch), dtype=np.int64)
+    keep = np.zeros((0, 0, 0)) if keep is None else keep
+    nw = max(1, min(workers(), D * nch))
+    sel = None if spec is None else spec.numba_args()
+    args = (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel)
+
+    def task(w):
+        return K.run_tasks(w, nw, *args)
+
+    if nw > 1 and K.run_tasks.signatures:
+        # the other shares on the pool's threads, this one here (the kernel releases the GIL)
+        futures = [_pool(nw - 1).submit(task, w) for w in range(1, nw)]
+        KERNELS.guarded(task, 0)
+        for f in futures:
+            f.result()
+    else:
+        # one thread, or the machine's first call (it compiles the kernel): this thread's share first
+        KERNELS.guarded(task, 0)
+        if KERNELS.module is None:      # it failed (a warning said why): the numpy path from now on
+            return None
+        if nw > 1:
+            futures = [_pool(nw - 1).submit(task, w) for w in range(1, nw)]
+            for f in futures:
+                f.result()
+    if KERNELS.module is None:
+        return None
+    stats, counts = K.combine(part, cnt, want)
+    return stats, counts, out_codes

@@ -1,0 +1,169 @@
+"""The engine's two tiers give the same bits: the generic dense routines
+(optdesign.engine.inverse, .eigen, .mass: n read at run time, compiled once for every shape)
+against the fixed-size code optdesign.engine.codegen writes for one shape
+(run here as plain Python: IEEE arithmetic, the same operations), routine by
+routine, for every size and the pose-column kinds of every pose type, on
+random, scaled, nearly singular and degenerate inputs; the kernel's digest of
+the files compiled into it; the engine's thread split and tier choice."""
+from __future__ import annotations
+
+import math
+import types
+
+import numpy as np
+import pytest
+
+from optdesign import engine
+from optdesign.engine import codegen as G
+from optdesign.engine import eigen as Dn
+from optdesign.engine import layout as Lay
+
+BLK = Lay.BLK
+K = pytest.importorskip("optdesign.engine.kernels")
+
+
+def _pure(fn, **names):
+    glb = dict(fn.__globals__)
+    glb.update(_u=int, **names)
+    return types.FunctionType(fn.__code__, glb)
+
+
+#: math with numpy's error model (a division by zero or a square root of a
+#: negative number gives inf / NaN, as in the compiled code), correctly rounded
+_MATH = types.SimpleNamespace(sqrt=lambda x: np.sqrt(np.float64(x)), pi=math.pi)
+
+_count_below = _pure(Dn._count_below)
+_bisect = _pure(Dn.bisect_flagged, _count_below=_count_below)
+NAMES = {**{k: getattr(Lay, k) for k in G.GLOBALS if hasattr(Lay, k)}, "math": _MATH, "np": np, "_u": int,
+         "_lmax3_point": Dn._lmax3_point.py_func,
+         "_bisect_flagged": lambda T, out, V, nt, m: _bisect(T, out, V, len(nt), m)}
+
+
+def _gen(source):
+    ns = dict(NAMES)
+    exec(compile(source, "<generated>", "exec"), ns)  # noqa: S102 - the generated code, run as plain Python
+    fn = ns["impl"]
+
+    def run(*args):
+        with np.errstate(all="ignore"):
+            return fn(*[np.float64(a) if isinstance(a, float) else a for a in args])
+    return run
+
+
+def _block(M):
+    """The rows of a block: entry (r, c) of point j at [(r n + c) BLK + j] (M: (BLK, n, n))."""
+    return np.ascontiguousarray(M.reshape(BLK, -1).T).ravel()
+
+
+def _matrices(rng, n):
+    """BLK test matrices: Gaussian, scaled by 1e-3 and 1e3, nearly singular, a repeated column, graded."""
+    A = rng.normal(size=(BLK, n, n))
+    A[:4] *= 1e-3
+    A[4:8] *= 1e3
+    if n > 1:
+        w = rng.normal(size=(8, n - 1))
+        A[8:16, -1] = np.einsum("ki,kij->kj", w, A[8:16, :-1]) + 10.0 ** rng.uniform(-12, -4, (8, 1))
+        A[16, :, 0] = A[16, :, -1]
+    A[17:20] *= 10.0 ** rng.uniform(-6, 0, (3, 1, n))
+    return A
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6])
+def test_inverse_generic_equals_the_generated_code(n):
+    """|det|, ||A^-1||_F^2 and U (A^-1, or R^-1 of A = QR for n >= 4: its upper triangle) bit for bit."""
+    rng = np.random.default_rng(100 + n)
+    A = _matrices(rng, n)
+    det, i2, U = K.inverse_stack(np.ascontiguousarray(A), None)
+    if n <= 3:   # the adjugate: the same routine in both tiers (there is no generated _inverse)
+        assert G.routine_source("_inverse", n) is None
+        return
+    Ug = np.zeros(n * n * BLK)
+    V = np.zeros((Lay.NVS + 3 * n) * BLK)
+    _gen(G.routine_source("_inverse", n))(_block(A), Ug, V, (0,) * n, BLK)
+    Ug = Ug.reshape(n * n, BLK).T.reshape(BLK, n, n)
+    iu = np.triu_indices(n)
+    assert np.array_equal(U[:, iu[0], iu[1]], Ug[:, iu[0], iu[1]], equal_nan=True)   # NaN: the singular one
+    assert np.array_equal(det, V[Lay.VDET * BLK:][:BLK]) and np.array_equal(i2, V[Lay.VI2 * BLK:][:BLK], equal_nan=True)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6])
+@pytest.mark.parametrize("rows", [False, True])
+def test_lambda_max_generic_equals_the_generated_code(n, rows):
+    """lambda_max of X^T X and of X X^T (X upper triangular for n >= 4, as the
+    inverse leaves it) bit for bit, the bisected points included (a zero
+    matrix, a double top eigenvalue)."""
+    rng = np.random.default_rng(200 + 10 * n + rows)
+    X = _matrices(rng, n)
+    X[20] = 0.0
+    if n >= 2:
+        Q = np.linalg.qr(rng.normal(size=(n, n)))[0]
+        X[21] = np.diag(np.r_[1.0, 1.0, rng.uniform(0.1, 0.9, n - 2)]) @ Q.T
+    if rows and n >= 4:
+        X = np.triu(X)
+    got = K.gram_lambda_max_stack(np.ascontiguousarray(X), rows, None)
+    out = np.zeros(BLK)
+    V = np.zeros((Lay.NVS + 3 * n) * BLK)
+    V[Lay.VMASK * BLK:(Lay.VMASK + 1) * BLK] = 1.0
+    T = np.zeros(2 * n * BLK)
+    _gen(G.routine_source("_lmax_rows" if rows else "_lmax_cols", n))(_block(X), out, T, V, (0,) * n, BLK)
+    assert np.array_equal(got, out)
+    G_ = X @ np.swapaxes(X, 1, 2) if rows else np.swapaxes(X, 1, 2) @ X
+    ref = np.linalg.eigvalsh(G_)[:, -1]
+    assert np.all(np.abs(got - ref) <= 2e-13 * np.max(ref))
+
+
+def _rigid_rows(rng):
+    B = np.zeros(Lay.NB * BLK)
+    B[:] = rng.normal(size=Lay.NB * BLK)
+    B[Lay.BA * BLK:(Lay.BA + 1) * BLK] = rng.uniform(1, 5, BLK)
+    return B
+
+
+@pytest.mark.parametrize("kinds, rods", [((0, 1, 2), True), ((3, 4, 5), False), ((6, 7, 5), False),
+                                         ((0, 1, 2, 6, 7, 5), False), ((0, 1, 2, 3, 4, 5), True), ((0, 1, 5), True),
+                                         ((0, 2, 6, 7), True), ((1, 6), True), ((5,), False), ((7,), True),
+                                         ((0, 1, 2, 3, 4), True), ((6, 7), False)])
+def test_dynamic_product_generic_equals_the_generated_code(kinds, rods):
+    """W = U^T M_p and M_p itself for the pose-column kinds of every pose type
+    (unit twist columns, Euler columns), with and without rods, bit for bit."""
+    n = len(kinds)
+    rng = np.random.default_rng(sum(kinds) + 17 * n + rods)
+    B = _rigid_rows(rng)
+    Lg = rng.normal(size=(n, Lay.NLG * BLK))
+    J = _block(rng.normal(size=(BLK, n, n)))
+    Kp = _block(rng.normal(size=(BLK, n, n)))
+    FRb = rng.normal(size=Lay.NFR * BLK)
+    U = rng.normal(size=(BLK, n, n))
+    if n >= 4:
+        U = np.triu(U)
+    U = _block(U)
+    spec = G.KernelSpec(kinds, rods, True)
+    ct = np.array(kinds, dtype=np.int64)
+    for mass_only in (False, True):
+        got = K.dyn_stack(B, Lg, J, Kp, FRb, U, ct, rods, mass_only, None)
+        W = np.zeros(n * n * BLK)
+        _gen(G.routine_source("_mass_p" if mass_only else "_dyn_w", n, spec))(B, Lg, J, Kp, FRb, U, W, (0,) * n, None,
+                                                                             BLK)
+        assert np.array_equal(got, W), mass_only
+
+
+def test_the_digest_of_the_compiled_sources_is_current():
+    """kernels.py records the digest of the files compiled into its kernels
+    (numba's cache watches kernels.py only): editing them must change it."""
+    assert K.ENGINE_DIGEST == K.engine_digest(), f"set ENGINE_DIGEST in optdesign/engine/kernels.py to {K.engine_digest()!r}"
+
+
+def test_the_tier_choice(monkeypatch):
+    spec = G.KernelSpec((0, 1, 2), True, False)
+    monkeypatch.delenv(engine.TIER_VAR, raising=False)
+    assert engine.tier(spec) is None
+    monkeypatch.setenv(engine.TIER_VAR, "specialized")
+    assert engine.tier(spec) == spec
+    monkeypatch.setenv(engine.TIER_VAR, "generic")
+    engine.specialize(spec)
+    try:
+        assert engine.tier(spec) is None
+        monkeypatch.setenv(engine.TIER_VAR, "auto")
+        assert engine.tier(spec) == spec
+    finally:
+        engine._SPECIALIZED.discard(spec)
