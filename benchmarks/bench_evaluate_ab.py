@@ -1,15 +1,12 @@
 """The whole evaluation path of the current tree against an earlier revision's,
-in one process, and the public kinematics API against the bare kernels.
+in one process.
 
 * ``evaluate()`` of the embedded paper config (indices dynamic, stiffness,
   isotropy) on the bench inputs of ``bench_throughput.py`` (50 random designs x
   1000 points, 1 design x 10^6 points): the earlier revision's whole package
   is extracted from git into a temporary folder as ``optdesign_<rev>`` (its
   numba cache kept there between runs) and timed beside the current one; the
-  results are compared (the largest relative difference of any statistic);
-* ``P4S.forward`` and ``P4S.jacobian`` through the public API on 10^6 poses
-  against the bare compiled kernels they call (the restructuring's target:
-  within 1.5x).
+  results are compared (the largest relative difference of any statistic).
 
     python benchmarks/bench_evaluate_ab.py [--rev 8b1a6dd] [--repeat 7]
 
@@ -104,36 +101,8 @@ def main():
         rows.append((f"evaluate, {D} x {N} points", D * N / times["before"] / 1e6, D * N / times["after"] / 1e6,
                      times["before"] / times["after"], "bitwise equal" if rel == 0 else f"max rel. difference {rel:.1e}"))
 
-    from optdesign import fast
-    from optdesign.mechanisms.p4s import P4S, compiled
-
-    mech = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=np.radians(35))
-    rng = np.random.default_rng(2)
-    N = 1_000_000
-    X = np.c_[rng.uniform(-0.05, 0.05, N), rng.uniform(-0.05, 0.05, N), rng.uniform(0.55, 0.59, N)]
-    Q = mech.inverse(X)
-    c, s = np.cos(float(mech.phi)), np.sin(float(mech.phi))
-    F = np.array([float(mech.r_b - mech.rho), c, s, float(mech.L) ** 2, float(mech.L)])
-    fk = compiled.FK.get()
-    out = np.empty_like(Q)
-    fk.p4s_forward(F, Q, out)
-    mech.forward(Q)
-    t_kernel = _best(lambda: fk.p4s_forward(F, Q, out), args.repeat)
-    t_api = _best(lambda: mech.forward(Q), args.repeat)
-    rows.append(("forward, 10^6 poses (API vs kernel)", N / t_kernel / 1e6, N / t_api / 1e6, t_kernel / t_api,
-                 f"API / kernel time {t_api / t_kernel:.2f}"))
-    ik = compiled.IK.get()
-    P, Xc = compiled._ik_inputs(mech, X)
-    ik.p4s_jacobian(P, Xc)
-    mech.jacobian(X)
-    t_kernel = _best(lambda: ik.p4s_jacobian(P, Xc), args.repeat)
-    t_api = _best(lambda: mech.jacobian(X), args.repeat)
-    with fast.disabled():
-        t_np = _best(lambda: mech.jacobian(X[:100_000]), max(1, args.repeat // 3)) * 10
-    rows.append(("jacobian, 10^6 poses (API vs kernel)", N / t_kernel / 1e6, N / t_api / 1e6, t_kernel / t_api,
-                 f"API / kernel time {t_api / t_kernel:.2f}; numpy {N / t_np / 1e6:.1f} M/s"))
     print(f"earlier revision {args.rev}; load {os.getloadavg()[0]:.2f}; best of {args.repeat}")
-    print("| case | before / kernel (M/s) | after / API (M/s) | after vs before (speed) | note |")
+    print("| case | before (M/s) | after (M/s) | after vs before (speed) | note |")
     print("|---|---:|---:|---:|---|")
     for r in rows:
         print(f"| {r[0]} | {r[1]:.1f} | {r[2]:.1f} | {r[3]:.2f} | {r[4]} |")

@@ -23,11 +23,10 @@ COL0+a   col_sq          J      max    c sum_i J_ia^2 = c (J^T J)_aa
 =======  ==============  =====  =====  ============================================
 
 c is the factor of :func:`select` (an option ``k``, ``n`` of normalized
-dexterity, else 1).  The kernels (:mod:`optdesign.mechanisms.described._kernels`,
-:mod:`optdesign.mechanisms.p4s.kernels`) compute each value with c = 1 in
-inline arithmetic of their own (QR, closed-form eigenvalues: no dispatch in
-the point loop) into the column of its id (the 3-P(4S) kernel: ids 0..4);
-their callers scale the reductions by c > 0 (:func:`kernel_value`).  The
+dexterity, else 1).  The engine (:mod:`optdesign.engine.kernels`) computes
+each value with c = 1 in inline arithmetic of its own (QR, closed-form
+eigenvalues: no dispatch in the point loop) into the column of its id; its
+callers scale the reductions by c > 0 (:func:`kernel_value`).  The
 global index is the mean of the local value over the reachable points
 (:mod:`optdesign.indices`).  The numpy paths (:mod:`optdesign.indices`, the
 points the kernels leave to LAPACK) call ``VALUES[...].value``; the gradients

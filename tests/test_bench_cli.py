@@ -34,7 +34,7 @@ def test_summary_is_the_first_sentence_on_one_line(tmp_path):
     assert bench.summary(p) == "(no docstring)"
 
 
-@pytest.mark.parametrize("name, hint", [("kernel_abb", "(did you mean 'bench_kernel_ab'?)"), ("zzz", None)])
+@pytest.mark.parametrize("name, hint", [("scalingg", "(did you mean 'bench_scaling'?)"), ("zzz", None)])
 def test_unknown_name_exits_2_with_one_line(capsys, name, hint):
     assert main(["bench", name]) == 2
     out = capsys.readouterr()
@@ -70,4 +70,4 @@ def test_throughput_compiled_paths_smoke(capfd):
                  "--repeat", "1", "--no-reproduce", "--json"]) == 0
     out = json.loads(capfd.readouterr().out)
     assert out["local"]["fast"]["points_per_s"] > 0 and out["local"]["numpy"]["points_per_s"] > 0
-    assert out["fk"]["fast"]["max_error_m"] < 1e-12
+    assert out["fk"]["numpy"]["poses_per_s"] > 0 and "fast" not in out["fk"]     # the 3-P(4S)'s FK: numpy only

@@ -184,21 +184,25 @@ def test_the_described_kernel_computes_each_id_as_the_table():
 
 
 def test_the_p4s_kernel_computes_each_id_as_the_table():
-    """The 3-P(4S) kernel's rows are the table's ids 0..4 (its values against the
-    table's numpy formulas on the numpy model's J and M)."""
-    from optdesign.mechanisms.p4s import P4S, compiled
+    """The 3-P(4S) through the engine (its description): the values of the
+    table's ids 0..4 against the table's numpy formulas on the numpy model's J and M."""
+    from optdesign import engine
+    from optdesign.mechanisms.base import IndexRequest
+    from optdesign.mechanisms.p4s import P4S
 
-    if compiled.LOCAL.get() is None:
+    if engine.kernel_module() is None:
         pytest.skip("numba not available")
-    assert compiled.IDS == (F.DYN, F.SMIN2, F.SMIN, F.FRO, F.TWO)
-    assert compiled.VALUE_NAMES == tuple(n for n in F.VALUES if F.VALUES[n].id < 5)
+    names = {F.DYN: ("dynamic", None), F.SMIN2: ("stiffness", "lambda_min_K"), F.SMIN: ("stiffness", "sqrt_lambda_min_K"),
+             F.FRO: ("isotropy", "frobenius"), F.TWO: ("isotropy", "two_norm")}
+    reqs = [IndexRequest(f"v{i}", *kc) for i, kc in names.items()]
+    assert [F.kernel_value(r.kind, r.convention, (), 3) for r in reqs] == [(i, 1.0) for i in names]
     mech = P4S(r_a=np.array([0.21, 0.25])[:, None], r_b=np.array([0.71, 0.67])[:, None], L=0.38, d=0.12,
                phi=np.radians([35.0, 30.0])[:, None])
     X = np.array([[0.0, 0.0, 0.57], [0.03, -0.02, 0.56], [-0.04, 0.03, 0.59]])
-    vals, reach = compiled.p4s_local(mech, X)
+    vals, reach = mech.local_values(reqs, X)
     assert reach.all()
     ops = F.Operands(J=mech.jacobian(X), M=mech.mass_matrix(X))
-    for i in compiled.IDS:
-        name = compiled.VALUE_NAMES[i]
-        ref = F.VALUES[name].value(ops, 1.0, 0)
-        assert np.max(np.abs(vals[name] - ref) / ref) < 1e-12, name
+    for i in names:
+        row = next(v for v in F.VALUES.values() if v.id == i)
+        ref = row.value(ops, 1.0, 0)
+        assert np.max(np.abs(vals[f"v{i}"] - ref) / ref) < 1e-12, row.name

@@ -1,16 +1,17 @@
-"""The 3-P(4S)'s compiled path (optdesign.mechanisms.p4s.compiled) against the numpy model.
+"""The 3-P(4S)'s compiled path (optdesign.mechanisms.p4s.compiled: the one
+engine on the mechanism's description) against the numpy model
+(optdesign.mechanisms.p4s.model, written from the paper independently).
 
 * local values at random designs and poses (unreachable, near-singular and the
   double eigenvalue at the workspace centre included) equal the numpy path's
-  to 1e-12 relative: the closed form itself where cond(J) < 1000, LAPACK (the
-  kernel hands those points over) beyond, where both lose about eps cond(J);
-* per-design mean/min/max/std over the reachable points, the reachable mask
-  (bitwise) and the counts equal those of ``global_summary``;
+  to 1e-12 relative (the engine hands points with cond(J) >= 1000 to the
+  description's numpy path), each design at shared points and at its own;
+* evaluate(): per-design mean/min/max/std over the reachable points, the
+  reachable mask (bitwise) and the counts equal the numpy path's;
 * results do not depend on the number of threads;
-* with the kernels forced off (set_enabled, OPTDESIGN_FAST=0, a failed import)
+* with the engine forced off (set_enabled, OPTDESIGN_FAST=0, a failed import)
   evaluate() takes the numpy path;
-* the public methods (inverse, jacobian, forward) take the compiled path and
-  equal the numpy model (bitwise for inverse kinematics and the Jacobian).
+* forward kinematics (closed form, numpy) round-trips the inverse.
 No timing here: speed is measured by ``benchmarks/`` (``optdesign bench --list``).
 """
 from __future__ import annotations
@@ -19,7 +20,9 @@ import numpy as np
 import pytest
 import yaml
 
-from optdesign import fast
+from optdesign import engine, fast
+from optdesign.config import IndexSpec
+from optdesign.mechanisms.base import IndexRequest
 from optdesign.mechanisms.p4s import compiled
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import evaluate, index_requests
@@ -32,7 +35,12 @@ from conftest import CONFIGS
 PAPER = CONFIGS / "p4s_paper.yaml"
 EPS = np.finfo(float).eps
 
-pytestmark = pytest.mark.skipif(not compiled.LOCAL.available(), reason=f"numba kernels unavailable: {compiled.LOCAL.error}")
+pytestmark = pytest.mark.skipif(not engine.KERNELS.available(), reason=f"numba kernels unavailable: {engine.KERNELS.error}")
+
+#: the engine's values of the fused kernel the mechanism had before (names as the reference's)
+REQUESTS = [IndexRequest("dynamic", "dynamic", None), IndexRequest("sigma_min_sq", "stiffness", "lambda_min_K"),
+            IndexRequest("sigma_min", "stiffness", "sqrt_lambda_min_K"),
+            IndexRequest("cond_fro", "isotropy", "frobenius"), IndexRequest("cond_2", "isotropy", "two_norm")]
 
 
 def _designs(rng, D):
@@ -63,102 +71,56 @@ def _reference(mech, X):
     return ref, reach, cond_2(J)
 
 
-@pytest.mark.slow
 def test_local_values_match_numpy():
+    """Every local value at random designs and poses, unreachable and
+    near-singular ones included: shared points (local_values) and each design
+    at its own (local_values_at)."""
     rng = np.random.default_rng(5)
     des = _designs(rng, 12)
     X = _poses(rng, 1500)
     mech = _mech(des)
-    vals, reach = compiled.p4s_local(mech, X)
     ref, reach0, cond = _reference(mech, X)
-    assert np.array_equal(reach, reach0)
-    assert 0.2 < reach.mean() < 0.95       # unreachable poses are part of the sample
-    assert np.nanmax(cond[reach]) > 1e3    # and near-singular ones
-    for name, r in ref.items():
-        a, b = vals[name][reach], r[reach]
-        fin = np.isfinite(b)
-        assert np.array_equal(a[~fin], b[~fin])
-        rel = np.abs(a[fin] - b[fin]) / np.abs(b[fin])
-        assert np.max(rel) < 1e-12, name
-    assert np.all(np.isnan(vals["dynamic"][~reach]))
-
-
-def test_raw_kernel_accuracy_near_singularities():
-    """The closed form alone (no LAPACK hand-off): 1e-12 where cond(J) < 1000 and
-    within 50 eps cond(J) beyond (the SVD's own accuracy); the kernel flags
-    (code 2) every point with cond(J) >= 1000 for the LAPACK path."""
-    rng = np.random.default_rng(5)
-    mech = _mech(_designs(rng, 12))
-    X = _poses(rng, 1500)
-    k = compiled.LOCAL.get()
-    raw, codes = k.p4s_local(compiled.design_constants(mech), np.ascontiguousarray(X), True)
-    ref, reach, cond = _reference(mech, X)
-    assert np.array_equal(codes != 0, reach)
-    assert np.all(codes[reach & (cond >= 1000)] == 2)
-    good = reach & np.isfinite(cond)
-    tol = np.maximum(1e-12, 50 * EPS * cond[good])
-    for i, name in enumerate(compiled.VALUE_NAMES):
-        a, b = raw[i][good], ref[name][good]
-        rel = np.abs(a - b) / np.abs(b)
-        assert np.all(rel <= tol), (name, np.max(rel / tol))
-        wc = cond[good] < 1000
-        assert wc.sum() > 1000 and np.max(rel[wc]) < 1e-12, name
+    assert 0.2 < reach0.mean() < 0.95       # unreachable poses are part of the sample
+    assert np.nanmax(cond[reach0]) > 1e3    # and near-singular ones
+    shared = mech.local_values(REQUESTS, X)
+    own = mech.local_values_at(REQUESTS, np.ascontiguousarray(np.broadcast_to(X, (12,) + X.shape)))
+    for vals, reach in (shared, own):
+        assert np.array_equal(reach, reach0)
+        for name, r in ref.items():
+            a, b = vals[name][reach], r[reach]
+            fin = np.isfinite(b)
+            assert np.array_equal(a[~fin], b[~fin])
+            rel = np.abs(a[fin] - b[fin]) / np.abs(b[fin])
+            assert np.max(rel) < 1e-12, name
+        assert np.all(np.isnan(vals["dynamic"][~reach]))
 
 
 def test_double_eigenvalue_at_the_centre():
     """At the centre of a symmetric design the indices sit on a double
-    eigenvalue; the closed form keeps 1e-14 there."""
+    eigenvalue; the closed forms keep 1e-14 there."""
     des = dict(r_a=np.array([0.25, 0.21]), r_b=np.array([0.67, 0.71]), L=np.array([0.38, 0.38]),
                d=np.array([0.12, 0.12]), phi=np.radians([30.0, 35.0]))
     mech = _mech(des)
     X = np.array([[0.0, 0.0, z] for z in np.linspace(0.5, 0.62, 13)])
-    vals, reach = compiled.p4s_local(mech, X)
+    vals, reach = mech.local_values(REQUESTS, X)
     ref, reach0, _ = _reference(mech, X)
     assert reach.all() and reach0.all()
     for name, r in ref.items():
         assert np.max(np.abs(vals[name] - r) / r) < 2e-14, name
 
 
-def test_lambda_max_closed_form():
-    k = compiled.LOCAL.get()
-    rng = np.random.default_rng(2)
-    cases = []
-    for _ in range(200):
-        Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-        lam = rng.uniform(0.1, 10.0, 3)
-        kind = rng.integers(4)
-        if kind == 1:
-            lam[1] = lam[0]                    # double
-        elif kind == 2:
-            lam[:] = lam[0]                    # triple
-        elif kind == 3:
-            lam[1] = lam[0] * (1 + 1e-9)       # nearly double
-        cases.append(Q @ np.diag(lam) @ Q.T)
-    cases.append(np.diag([2.0, 2.0, 1.0]))
-    cases.append(np.diag([1.0, 1.0, 2.0]))
-    cases.append(np.zeros((3, 3)))
-    for A in cases:
-        A = 0.5 * (A + A.T)
-        got = k.lambda_max_psd(A[0, 0], A[1, 1], A[2, 2], A[0, 1], A[0, 2], A[1, 2])
-        want = np.linalg.eigvalsh(A)[-1]
-        assert abs(got - want) <= 1e-14 * max(abs(want), 1e-300) + 1e-300, (A, got, want)
-
-
 def test_exactly_singular_and_unreachable():
-    """Vertical rails (m = z), no offset, L = 1/2: at x = 1/2 the rods lie in the
-    rails' plane exactly (s = 0): dynamic inf, stiffness 0, isotropy inf."""
-    k = compiled.LOCAL.get()
-    P = np.zeros((1, 15))
-    P[0, 1], P[0, 2] = 0.5, 0.25
-    P[0, 3], P[0, 4], P[0, 5] = 4.0, 1.0, 0.1
-    P[0, 8] = P[0, 11] = P[0, 14] = 1.0
-    xs = np.array([0.5, 0.25, 0.75])
-    ys = np.zeros(3)
-    zs = np.ones(3)
-    vals, codes = k.p4s_local(P, np.ascontiguousarray(np.c_[xs, ys, zs]), True)
-    assert codes[0, 0] == 2 and codes[0, 1] != 0 and codes[0, 2] == 0   # singular: left to LAPACK
-    assert vals[0, 0, 0] == np.inf and vals[1, 0, 0] == 0.0 and vals[2, 0, 0] == 0.0
-    assert vals[3, 0, 0] == np.inf and vals[4, 0, 0] == np.inf
+    """Vertical rails (phi = 90 deg), L = 1/2: at a pose where the rods lie in
+    the rails' plane (s = 0) the dynamic index is inf, the stiffness 0 and the
+    isotropy inf, as on the numpy path; beyond it, unreachable."""
+    mech = P4S(r_a=0.25, r_b=0.25 * np.cos(np.arcsin(0.12 / 0.5)), L=0.5, d=0.12, phi=np.pi / 2)
+    X = np.array([[0.5, 0.0, 1.0], [0.25, 0.0, 1.0], [0.75, 0.0, 1.0]])
+    vals, reach = mech.local_values(REQUESTS, X)
+    ref, reach0, _ = _reference(mech, X)
+    assert np.array_equal(reach[0], reach0) and list(reach0) == [True, True, False]
+    for name in ref:
+        assert np.array_equal(vals[name][0, :2], ref[name][:2]), name
+    assert vals["dynamic"][0, 0] == np.inf and vals["sigma_min"][0, 0] == 0.0 and vals["cond_2"][0, 0] == np.inf
 
 
 # ----------------------------------------------------------------------------- evaluate()
@@ -255,20 +217,33 @@ def test_design_without_reachable_points_gives_nan():
 
 
 def test_unsupported_index_takes_numpy_path():
-    """The kernel answers the indices it computes and leaves the others to the
-    numpy path (with its reachable mask); evaluate() then equals the numpy path
-    for every index."""
+    """The engine answers the requests it computes (here every kind the config
+    names) and leaves the others (a stiffness with k <= 0: no kernel column)
+    to the numpy path (with its reachable mask); evaluate() then equals the
+    numpy path for every index."""
     cfg = _config(indices__dexterity={"kind": "dexterity"}, indices__manip={"kind": "manipulability"},
                   optimizer__weights__dexterity=0, optimizer__weights__manip=0)
     mech = P4S(**cfg.design("after"), **cfg.parameters)
     ans = mech.global_statistics(index_requests(cfg, list(cfg.indices)), np.zeros((1, 3)))
-    assert set(ans[0]) == {"dynamic", "stiffness", "isotropy"}
-    assert mech.global_statistics(index_requests(cfg, ["dexterity", "manip"]), np.zeros((1, 3))) is None
-    assert mech.global_statistics(index_requests(cfg, ["dynamic", "isotropy"]), np.zeros((1, 3))) is not None
+    assert set(ans[0]) == {"dynamic", "stiffness", "isotropy", "dexterity", "manip"}
+    odd = [IndexRequest("soft", "stiffness", None, (("k", -1.0),))]
+    assert mech.global_statistics(odd, np.zeros((1, 3))) is None
+    assert set(mech.global_statistics(odd + index_requests(cfg, ["dynamic"]), np.zeros((1, 3)))[0]) == {"dynamic"}
     rng = np.random.default_rng(4)
     designs = {"r_a": rng.uniform(0.18, 0.32, 20), "r_b": rng.uniform(0.55, 0.80, 20),
                "phi": np.radians(rng.uniform(20, 40, 20))}
-    _compare(cfg, designs, _workspace(cfg, _poses(rng, 700)))
+    ws = _workspace(cfg, _poses(rng, 700))
+    # |det J| near a singular pose (the min and max over W reach cond(J) ~ 1e3):
+    # the compensated adjugate and LAPACK agree to eps cond(J)
+    mech = P4S(**{k: np.asarray(v)[:, None] for k, v in designs.items()}, L=0.38, d=0.12)
+    with np.errstate(all="ignore"), fast.disabled():
+        c = np.where(mech.reachable(ws.X), cond_2(mech.jacobian(ws.X)), 0.0)
+    cmax = np.nanmax(np.where(np.isfinite(c), c, 0.0), axis=-1)
+    det_tol = np.maximum(1e-12, 20 * EPS * cmax)
+    rtol = {n: {st: np.full(20, 1e-12 if st != "std" else 1e-10) for st in ("mean", "min", "max", "std")}
+            for n in cfg.indices}
+    rtol["manip"] = {st: np.maximum(det_tol, 1e-10 if st == "std" else 0.0) for st in ("mean", "min", "max", "std")}
+    _compare(cfg, designs, ws, rtol)
 
 
 # ----------------------------------------------------------------------------- threads, fallback
@@ -283,19 +258,20 @@ def test_results_do_not_depend_on_thread_count():
         out = []
         for nt in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS), numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(nt)
-            stats, counts, reach = compiled.p4s_summary(mech, X)
-            vals, reach2 = compiled.p4s_local(mech, X)
-            one = P4S(r_a=0.21, r_b=0.71, L=0.38, d=0.12, phi=np.radians(35.0))
-            with np.errstate(all="ignore"):
-                fk = one.forward(one.inverse(np.tile(X[:500], (10, 1))))
-            out.append((stats, counts, reach, vals, reach2, fk))
+            summary, reach = mech.global_statistics(REQUESTS, X)
+            vals, reach2 = mech.local_values(REQUESTS, X)
+            out.append((summary, reach, vals, reach2))
     finally:
         numba.set_num_threads(old)
     for o in out[1:]:
         for a, b in zip(out[0], o):
             if isinstance(a, dict):
                 for key in a:
-                    np.testing.assert_array_equal(a[key], b[key])
+                    if isinstance(a[key], dict):
+                        for stat in a[key]:
+                            np.testing.assert_array_equal(a[key][stat], b[key][stat])
+                    else:
+                        np.testing.assert_array_equal(a[key], b[key])
             else:
                 np.testing.assert_array_equal(a, b)
 
@@ -312,24 +288,19 @@ def test_fallback_when_disabled_or_unavailable(monkeypatch):
     with fast.disabled():
         assert mech.global_statistics(index_requests(cfg, names), X) is None
     # numba missing: the import failed
-    for km in (compiled.LOCAL, compiled.FK, compiled.IK):
-        monkeypatch.setattr(km, "module", None)
-        monkeypatch.setattr(km, "error", ImportError("no numba"))
-    assert not compiled.LOCAL.available() and compiled.FK.get() is None and compiled.IK.get() is None
+    monkeypatch.setattr(engine.KERNELS, "module", None)
+    monkeypatch.setattr(engine.KERNELS, "error", ImportError("no numba"))
+    assert not engine.KERNELS.available()
     assert mech.global_statistics(index_requests(cfg, names), X) is None
+    assert mech.local_values(REQUESTS, X) is None
     ev = evaluate(cfg, [cfg.design("after")])
     assert 15.0 < ev.summary["dynamic"]["mean"][0] < 16.5
-    np.testing.assert_allclose(mech.forward(np.array([[0.4, 0.41, 0.42]])),
-                               mech.forward_numpy(np.array([[0.4, 0.41, 0.42]])), rtol=0, atol=0)
-    Xp = np.array([[0.01, -0.02, 0.57]])
-    assert compiled.inverse(mech, Xp) is None and compiled.jacobian(mech, Xp) is None
 
 
 # ----------------------------------------------------------------------------- forward kinematics
-def test_forward_kinematics_kernel():
-    """Round trip inverse -> forward to 1e-12 m and the numpy forward to 1e-12 m
-    where J is not nearly singular; near singularities the problem itself is
-    ill-conditioned and both paths lose the same digits."""
+def test_forward_kinematics_round_trip():
+    """Round trip inverse -> forward to 1e-12 m where J is not nearly singular;
+    the caller's output array; NaN where the spheres do not meet."""
     rng = np.random.default_rng(4)
     for _ in range(5):
         d = {k: float(v[0]) for k, v in _designs(rng, 1).items()}
@@ -341,42 +312,37 @@ def test_forward_kinematics_kernel():
         ok = np.all(np.isfinite(Q), axis=-1)
         Q, X, cond = Q[ok], X[ok], cond[ok]
         P = mech.forward(Q)
-        with np.errstate(all="ignore"):
-            P0 = mech.forward_numpy(Q)
-        err, err0 = np.abs(P - X).max(axis=-1), np.abs(P0 - X).max(axis=-1)
         wc = cond < 1e3
-        assert np.max(err[wc]) <= 1e-12 and np.max(np.abs(P - P0)[wc]) <= 1e-12
-        assert np.all(err <= 2 * err0 + 1e-13)
-    # a caller's output array, a non-contiguous input: the same values
+        assert np.max(np.abs(P - X).max(axis=-1)[wc]) <= 1e-12
     out = np.full(Q.shape, 7.0)
     assert mech.forward(Q, out=out) is out
     np.testing.assert_array_equal(out, P)
     np.testing.assert_array_equal(mech.forward(np.asfortranarray(Q)), P)
-    # in place, and a pose's result does not depend on where it falls (vectorized
-    # loop, scalar remainder, the scalar loop taken when out aliases Q)
-    Q2 = Q.copy()
-    np.testing.assert_array_equal(mech.forward(Q2, out=Q2), P)
-    np.testing.assert_array_equal(mech.forward(Q[3:]), P[3:])
-    np.testing.assert_array_equal(np.concatenate([mech.forward(Q[k:k + 1]) for k in range(20)]), P[:20])
-    with pytest.raises(ValueError):
-        mech.forward(Q, out=np.empty((len(Q), 3), order="F"))
-    # spheres that do not meet: NaN as the numpy path
     Qbad = np.array([[0.0, 0.0, 2.0], [2.0, -2.0, 0.0]])
     with np.errstate(all="ignore"):
-        assert np.array_equal(np.isnan(mech.forward(Qbad)), np.isnan(mech.forward_numpy(Qbad)))
+        assert np.all(np.isnan(mech.forward(Qbad)))
 
 
-def test_public_inverse_and_jacobian_are_the_numpy_models_bitwise():
-    """P4S.inverse / reachable / jacobian through the compiled kernel equal the
-    numpy model bit for bit, for one design and for a population (D, 1), at
-    reachable and unreachable poses."""
+def test_the_description_is_the_mechanism():
+    """The description the engine runs on has the model's kinematics: strokes,
+    the Jacobian and the mass matrix agree to round-off (1e-14), for one design
+    and a population."""
     rng = np.random.default_rng(12)
-    X = np.concatenate([_poses(rng, 3000), np.c_[rng.uniform(-0.5, 0.5, (300, 2)), rng.uniform(0.8, 1.2, 300)]])
+    X = _poses(rng, 500)
     for mech in (P4S(**{k: float(v[0]) for k, v in _designs(rng, 1).items()}), _mech(_designs(rng, 9))):
-        got = (mech.inverse(X), mech.reachable(X), mech.jacobian(X))
-        with fast.disabled():
-            want = (mech.inverse(X), mech.reachable(X), mech.jacobian(X))
-        assert compiled.inverse(mech, X) is not None and compiled.jacobian(mech, X) is not None
-        for a, b in zip(got, want):
-            assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
-        assert 0.1 < got[1].mean() < 0.95 and np.isnan(got[0]).any()
+        desc = compiled.described(mech)
+        with np.errstate(all="ignore"), fast.disabled():
+            q0, q1 = mech.inverse(X), desc.inverse(X)
+            assert np.array_equal(np.isnan(q0), np.isnan(q1))
+            ok = ~np.isnan(q0[..., 0])
+            assert np.max(np.abs(q0 - q1)[ok]) < 1e-14
+            J0, J1 = mech.jacobian(X)[ok], desc.jacobian(X)[ok]
+            M0, M1 = mech.mass_matrix(X)[ok], desc.mass_matrix(X)[ok]
+        # J: the strokes' discriminant L^2 - |w|^2 + (m.w)^2 loses digits where a
+        # leg nears its own singularity (measured: 3.5e-13 at cond 26); M = J^-T
+        # M_p to eps cond(J)^2 (M_p's terms grow like |J|^2, J^-T of each model's own J)
+        c = cond_2(J0)
+        good = c < 100
+        assert np.all(np.abs(J0 - J1)[good] <= 1e-12 * np.abs(J0[good]).max(axis=(1, 2))[:, None, None])
+        scale = 10 * EPS * c ** 2 * np.abs(M0).max(axis=(1, 2))
+        assert np.all(np.abs(M0 - M1).max(axis=(1, 2)) <= scale)

@@ -288,7 +288,7 @@ def test_compile_notice_before_a_cold_kernel_module(monkeypatch):
 
 def test_cache_detection_sees_an_empty_cache(tmp_path):
     code = ("import optdesign.fast as f; "
-            "print(f.kernel_cache_present('optdesign.mechanisms.p4s.kernels'))")
+            "print(f.kernel_cache_present('optdesign.engine.kernels'))")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                        env={**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path)})
     assert p.stdout.strip() == "False", p.stderr

@@ -28,7 +28,7 @@ from optdesign import fast
 from optdesign.config import IndexSpec, WorkspaceSpec
 from optdesign.evaluate import evaluate, global_indices_error
 from optdesign.indices import global_summary
-from optdesign.mechanisms.p4s import compiled
+from optdesign import engine
 from optdesign.workspace import sample
 
 NAMES = ("x", "y", "z")
@@ -338,7 +338,7 @@ def test_paper_grid_is_bitwise_unchanged_and_errors_for_results(paper_reference)
 
 
 # ----------------------------------------------------------------------------- the weighted path
-@pytest.mark.skipif(not compiled.LOCAL.available(), reason="numba kernels unavailable")
+@pytest.mark.skipif(not engine.KERNELS.available(), reason="numba kernels unavailable")
 def test_weighted_path_compiled_equals_numpy_and_unweighted(paper_config):
     rng = np.random.default_rng(3)
     designs = {"r_a": rng.uniform(0.21, 0.29, 6), "r_b": rng.uniform(0.63, 0.71, 6),

@@ -97,13 +97,14 @@ def _pool(nw):
     return _POOL
 
 
-def run(codes, L, F, FR, N, want, flags, keep=None, spec=None):
+def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     """The kernel over every design of L, F at the N points of the frame data
     FR: (stats (D, NVAL, 4), counts (D,), reach codes (D, N) int8), or None if
     the kernel cannot run here (a warning says why once).  keep (D, NVAL, N):
     receives every point's wanted values too; spec: a KernelSpec (the shape's
     generated routines, :mod:`.codegen`, compiled once per shape) or None (the
-    generic ones, compiled once for every shape; the same results).  The tasks (CHUNK points of one
+    generic ones, compiled once for every shape; the same results); stats
+    False: (None, None, codes), the values in keep only.  The tasks (CHUNK points of one
     design) are shared among :func:`workers` threads in a fixed pattern, each
     task's results its own, so results do not depend on the thread count."""
     K = kernel_module()
@@ -118,7 +119,7 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None):
     part = np.zeros((D, nch, NVAL, 4))
     cnt = np.zeros((D, nch), dtype=np.int64)
     keep = np.zeros((0, 0, 0)) if keep is None else keep
-    nw = max(1, min(workers(), D * nch))
+    nw = 1 if D * nch == 1 else max(1, min(workers(), D * nch))
     sel = None if spec is None else spec.numba_args()
     args = (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel)
 
@@ -142,5 +143,7 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None):
                 f.result()
     if KERNELS.module is None:
         return None
-    stats, counts = K.combine(part, cnt, want)
-    return stats, counts, out_codes
+    if not stats:
+        return None, None, out_codes
+    st, counts = K.combine(part, cnt, want)
+    return st, counts, out_codes

@@ -296,6 +296,9 @@ def dyn_source(spec: KernelSpec, mass_only=False, name="impl"):
     K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib; the
     pose columns s of the spec's kinds (a selection or the Euler columns) are
     expanded in the code, so only the entries of B they meet are read.
+    For n <= 3 (U = J^-1) the legs' terms enter W through J U = I, without
+    M_p: W = U^T S^T B S + diag(gamma) J + diag(delta) K + (U^T K^T) diag(delta) J
+    (no cancellation of the gamma J^T J terms near a singular pose).
     mass_only: store M_p itself (full) into W instead (U is not read)."""
     n, kinds, rods = spec.n, spec.kinds, spec.rods
     upper = n >= 4
@@ -329,11 +332,32 @@ def dyn_source(spec: KernelSpec, mass_only=False, name="impl"):
                 L.append(f"        q{i}_{b} = de{i} * j{i}_{b}")
             else:
                 L.append(f"        p{i}_{b} = ga{i} * j{i}_{b}")
+    small = n <= 3 and not mass_only
     for a in range(n):
         for b in range(a, n):
             sbs = " + ".join(_times(cf, f"tb{b}_{k}") for k, cf in svec[a].items())
+            if small:   # T = S^T B S only: the legs enter W directly (below)
+                L.append(f"        m{a}_{b} = ({sbs})")
+                continue
             legs = " + ".join(f"j{i}_{a} * p{i}_{b}" + (f" + kp{i}_{a} * q{i}_{b}" if rods else "") for i in range(n))
             L.append(f"        m{a}_{b} = ({sbs}) + ({legs})")
+    if small:
+        # W = U^T T + diag(gamma) J + diag(delta) K + (U^T K^T) diag(delta) J: U^T J_i^T = e_i (U = J^-1)
+        L += [f"        u{r}_{c} = U[_u({r * n + c} * BLK + j)]" for r in range(n) for c in range(n)]
+        if rods:
+            for i in range(n):
+                for k in range(n):
+                    t = " + ".join(f"u{l}_{i} * kp{k}_{l}" for l in range(n))
+                    L.append(f"        v{i}_{k} = {t}")
+        for i in range(n):
+            for b in range(n):
+                t = " + ".join(f"u{k}_{i} * m{min(k, b)}_{max(k, b)}" for k in range(n))
+                t = f"({t}) + ga{i} * j{i}_{b}"
+                if rods:
+                    v = " + ".join(f"v{i}_{k} * q{k}_{b}" for k in range(n))
+                    t += f" + de{i} * kp{i}_{b} + ({v})"
+                L.append(f"        W[_u({i * n + b} * BLK + j)] = {t}")
+        return _source(L)
     if mass_only:
         L += [f"        W[_u({a * n + b} * BLK + j)] = m{min(a, b)}_{max(a, b)}" for a in range(n) for b in range(n)]
         return _source(L)

@@ -73,7 +73,7 @@ from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, IFRO, NB, NE
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "4b1102e2c6c4d916"
+ENGINE_DIGEST = "5a133f8646aff7a3"
 
 _SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py", "engine/layout.py",
             "engine/codegen.py", "formulas.py", "fast/_jit.py")

@@ -58,6 +58,6 @@ NEWTON_DYN = 5
 TAU = 1e-13
 #: scratch rows of the dense routines (rows of BLK): the most of eigen's
 #: tridiagonalization (the Gram matrix n n, six vectors of NMAX rows and six
-#: single rows), mass.dyn (B s_b: 6 n; M_p, P and D: n n each) and inverse's
-#: QR (R: n n and four rows)
-SROWS = max(NMAX * NMAX + 6 * NMAX + 6, 6 * NMAX + 3 * NMAX * NMAX, NMAX * NMAX + 4)
+#: single rows), mass.dyn (B s_b: 6 n; M_p, P, D and U^T K^T: n n each) and
+#: inverse's QR (R: n n and four rows)
+SROWS = max(NMAX * NMAX + 6 * NMAX + 6, 6 * NMAX + 4 * NMAX * NMAX, NMAX * NMAX + 4)

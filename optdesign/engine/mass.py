@@ -55,14 +55,58 @@ def _euler(kind, k):
 
 
 @register_jitable(**_JITABLE)
+def _dyn_small(Lg, J, Kp, U, W, S, n, rods, m, om, oq, ov):
+    """W = U^T M_p for n <= 3 (U = J^-1, exact to a few ulps) with the legs'
+    terms taken through J U = I instead of through M_p: U^T J_i^T = e_i, so
+
+        W = U^T T + diag(gamma) J + diag(delta) K + (U^T K^T) diag(delta) J
+
+    (T = S^T B S at rows om, D = diag(delta) J at rows oq; U^T K^T into rows
+    ov).  The terms gamma J^T J of M_p grow like |J|^2 near a singular pose and
+    cancel in U^T M_p; here they never form (the 3-P(4S) kernel's form)."""
+    if rods:
+        for i in range(n):
+            for k in range(n):
+                o = ov + (i * n + k) * BLK
+                for l in range(n):
+                    ou = (l * n + i) * BLK
+                    ok = (k * n + l) * BLK
+                    if l == 0:
+                        for j in range(m):
+                            S[_u(o + j)] = U[_u(ou + j)] * Kp[_u(ok + j)]
+                    else:
+                        for j in range(m):
+                            S[_u(o + j)] += U[_u(ou + j)] * Kp[_u(ok + j)]
+    for i in range(n):
+        oga = GGA * BLK
+        ode = GDE * BLK
+        for b in range(n):
+            ow = (i * n + b) * BLK
+            oj = (i * n + b) * BLK
+            for j in range(m):
+                t = U[_u(i * BLK + j)] * S[_u(om + b * BLK + j)]
+                for k in range(1, n):
+                    t = t + U[_u((k * n + i) * BLK + j)] * S[_u(om + (min(k, b) * n + max(k, b)) * BLK + j)]
+                t = t + Lg[i, _u(oga + j)] * J[_u(oj + j)]
+                if rods:
+                    t = t + Lg[i, _u(ode + j)] * Kp[_u(oj + j)]
+                    v = S[_u(ov + (i * n) * BLK + j)] * S[_u(oq + b * BLK + j)]
+                    for k in range(1, n):
+                        v = v + S[_u(ov + (i * n + k) * BLK + j)] * S[_u(oq + (k * n + b) * BLK + j)]
+                    t = t + v
+                W[_u(ow + j)] = t
+
+
+@register_jitable(**_JITABLE)
 def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
     """W = U^T M_p (U from :func:`inverse`; upper triangular for n >= 4), or
     M_p itself (mass_only), without M_p stored: M_p = S^T B S + sum_i [gamma_i
     J_i^T J_i + delta_i (J_i^T K_i + K_i^T J_i)] as s_a.(B s_b) + sum_i (J_ia
     P_ib + K_ia D_ib), P_ib = gamma_i J_ib + delta_i K_ib, D_ib = delta_i J_ib,
     the pose columns s of the kinds ct (a twist component or an Euler column,
-    whose entries are in the frame data's FRE rows).  S rows: (B s_b)_k at (b 6
-    + k), then M_p (n n), then P, D (n n each)."""
+    whose entries are in the frame data's FRE rows); for n <= 3 the legs'
+    terms of W without M_p (:func:`_dyn_small`).  S rows: (B s_b)_k at (b 6 +
+    k), then M_p (n n), then P, D, U^T K^T (n n each)."""
     comp = np.zeros(6, dtype=np.bool_)
     for c in range(n):
         kc = ct[c]
@@ -99,6 +143,8 @@ def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
     om = n * 6 * BLK
     op = om + n * n * BLK
     oq = op + n * n * BLK
+    ov = oq + n * n * BLK
+    small = n <= 3 and not mass_only
     for i in range(n):
         oga = (GGA * BLK)
         ode = (GDE * BLK)
@@ -136,6 +182,8 @@ def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
                         for j in range(m):
                             S[_u(o + j)] += FRb[_u((FRE + e) * BLK + j)] * S[_u(ot + j)]
                     first = False
+            if small:       # the legs enter W directly (below), not through M_p
+                continue
             # + the legs' sum
             oja = a * BLK
             ojb = b * BLK
@@ -161,6 +209,9 @@ def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
                 ow = (a * n + b) * BLK
                 for j in range(m):
                     W[_u(ow + j)] = S[_u(o + j)]
+        return
+    if small:
+        _dyn_small(Lg, J, Kp, U, W, S, n, rods, m, om, oq, ov)
         return
     upper = n >= 4
     for i in range(n):

@@ -31,7 +31,8 @@ from ...fast.merge import add_points
 from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO, Operands, select, singular_values
 from ..base import IndexRequest
 
-__all__ = ["IndexRequest", "global_statistics", "local_values_at", "reach_codes", "plan", "kernels", "pack"]
+__all__ = ["IndexRequest", "global_statistics", "local_values", "local_values_at", "reach_codes", "plan", "kernels",
+           "pack"]
 
 
 _PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
@@ -40,7 +41,17 @@ _RATE_COLUMN = {"x": 0, "y": 1, "z": 2, "roll": 6, "pitch": 7, "yaw": 5}
 
 
 def pack(mech):
-    """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF)) for the designs of mech."""
+    """(codes: ptype, ct, kind, branch; L (D, n, NL); F (D, NF), D) for the designs
+    of mech, computed once per mechanism (its parameters do not change: the
+    worst-case search calls the kernel thousands of times for one design)."""
+    memo = mech.__dict__.get("_engine_pack")
+    if memo is None:
+        memo = _pack(mech)
+        mech.__dict__["_engine_pack"] = memo
+    return memo
+
+
+def _pack(mech):
     C = mech.constants
     shape = C.shape
     if len(shape) > 2 or (len(shape) == 2 and shape[1] != 1):
@@ -96,11 +107,19 @@ def shape_codes(mech):
 
 
 def kernel_spec(codes):
-    """The kernel's compile-time choices (a KernelSpec) for pack's codes."""
+    """The specialized tier's compile-time choices (a KernelSpec) for pack's codes."""
     from ...engine.codegen import KernelSpec
 
     ptype, ct, kind, _ = codes
-    return KernelSpec(tuple(ct), bool(np.any(kind != 2)), ptype != 0)
+    key = (ptype, ct.tobytes(), kind.tobytes())
+    spec = _SPECS.get(key)
+    if spec is None:
+        spec = _SPECS[key] = KernelSpec(tuple(ct), bool(np.any(kind != 2)), ptype != 0)
+    return spec
+
+
+#: KernelSpec of each shape seen (the worst-case search asks thousands of times)
+_SPECS: dict = {}
 
 
 def kernel_source(mech, title: str) -> str:
@@ -229,9 +248,14 @@ def _take(C, dd):
 def _numpy_values(mech, X, dd, jj, entries, KM=None, packed=None):
     """The numpy path's local values (len(entries), K) at the pairs (design dd[i], point jj[i]):
     J from the numpy path itself; for the dynamic index M = J^-T M_p with the
-    kernel's M_p (packed: pack(mech)) where the kernel is given."""
+    kernel's M_p (packed: pack(mech)) where the kernel is given.  A mechanism
+    that is the description of a hand-written one names that one as its
+    ``numpy_reference`` (the same designs): its own numpy model gives J and M."""
     from .mechanism import _solve_T
 
+    ref = getattr(mech, "numpy_reference", None)
+    if ref is not None:
+        return _reference_values(ref, X, dd, jj, entries)
     C = mech.constants
     shape = C.shape
     D = int(np.prod(shape)) if shape else 1
@@ -252,6 +276,22 @@ def _numpy_values(mech, X, dd, jj, entries, KM=None, packed=None):
         else:
             mats = sub.index_matrices(Xk, {"J"} | ({"M"} if dyn else set()))
             J, M = mats["J"], mats.get("M")
+        svJ = singular_values(J) if any(e[0] in ("stiffness", "isotropy", "dexterity") for e in entries) else None
+        svM = singular_values(M) if dyn else None
+        return np.stack([_local_numpy(kind, conv, opts, J, svJ, svM) for kind, conv, opts in entries])
+
+
+def _reference_values(ref, X, dd, jj, entries):
+    """:func:`_numpy_values` from the hand-written mechanism ``ref`` (its numpy model)."""
+    shape = ref.design_shape
+    D = int(np.prod(shape)) if shape else 1
+    params = {k: np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(D)[dd] if np.ndim(v) else v
+              for k, v in ref.params.items()}
+    sub = type(ref)(**params)
+    dyn = any(e[0] == "dynamic" for e in entries)
+    with np.errstate(all="ignore"):
+        mats = sub.index_matrices(np.asarray(X, dtype=float)[jj], {"J"} | ({"M"} if dyn else set()))
+        J, M = mats["J"], mats.get("M")
         svJ = singular_values(J) if any(e[0] in ("stiffness", "isotropy", "dexterity") for e in entries) else None
         svM = singular_values(M) if dyn else None
         return np.stack([_local_numpy(kind, conv, opts, J, svJ, svM) for kind, conv, opts in entries])
@@ -318,44 +358,73 @@ def _flags(want, codes):
     """The kernel's flags (dynamic, sigma_min, sigma_max, column norms, rods, rotations) for the wanted values."""
     ptype, _, kind, _ = codes
     return (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
-            bool(want[COL0:].any()), bool(np.any(kind != 2)), ptype != 0)
+            bool(want[COL0:].any()), kernel_spec(codes).rods, ptype != 0)
 
 
-def local_values_at(mech, requests, X):
-    """The seam ``Mechanism.local_values_at``: each of the D designs at its own
-    K points X (D, K, dof), ``(values {name: (D, K)}, reachable (D, K))``, NaN
-    where not reachable, or None when the kernel does not compute every
-    request (the caller then runs the numpy path).  Points the kernel flags
-    (``cond_F(J) >= 1000`` or not finite) get the numpy path's values, as in
-    :func:`global_statistics`."""
+def _plan_of(mech, requests):
+    """(plan, want, flags) of the requests for mech's shape, kept per request
+    list (the worst-case search asks with the same requests thousands of times)."""
+    key = tuple((r.name, r.kind, r.convention, tuple(sorted((r.options or {}).items()))
+                 if isinstance(r.options, dict) else r.options) for r in requests)
+    memo = mech.__dict__.setdefault("_engine_plans", {})
+    got = memo.get(key)
+    if got is None:
+        pl = plan(requests, mech.dof, mech.description.has_dynamics)
+        want = np.zeros(NVAL, dtype=np.bool_)
+        want[sorted({v for _, v, _ in pl})] = True
+        got = memo[key] = (pl, want, _flags(want, pack(mech)[0]))
+    return got
+
+
+def _same_frames(mech, F) -> bool:
+    """Whether every design has the same frames (all but a rotation pose whose
+    fixed angles differ between designs), kept per mechanism."""
+    same = mech.__dict__.get("_engine_same")
+    if same is None:
+        fix = F[:, K.FFIX:K.FFIX + 3]
+        spec = mech.pose_spec
+        same = mech.__dict__["_engine_same"] = bool(spec.type != "rotation" or len(spec.roles) == 3
+                                                    or np.all(fix == fix[0]))
+    return same
+
+
+def _point_values(mech, requests, X, per_design: bool):
+    """Every point's values of the requests: X (D, K, dof) each design at its
+    own points (per_design), or X (N, dof) shared by the designs; ``(values
+    {name: (D, K)}, reachable (D, K))``, NaN where not reachable, or None when
+    the kernel does not compute every request.  Points the kernel flags get the
+    numpy path's values, as in :func:`global_statistics`."""
     if not enabled():
         return None
     X = np.asarray(X, dtype=float)
     KM = kernels()
-    if KM is None or X.ndim != 3 or X.shape[2] != mech.dof or X.shape[1] == 0:
-        return None
-    pl = plan(requests, mech.dof, mech.description.has_dynamics)
-    if len(pl) != len(requests):
+    if KM is None or X.ndim != (3 if per_design else 2) or X.shape[-1] != mech.dof or X.shape[-2] == 0:
         return None
     try:
         codes, L, F, D = pack(mech)
     except ValueError:
         return None
-    if X.shape[0] != D:
+    pl, want, flags = _plan_of(mech, requests)
+    if len(pl) != len(requests):
         return None
-    ptype, ct, kind, branch = codes
-    n_pts = X.shape[1]
+    if per_design and X.shape[0] != D:
+        return None
+    ptype = codes[0]
+    n_pts = X.shape[-2]
     rows = K.FR_ROWS[ptype]
     fix = F[:, K.FFIX:K.FFIX + 3]
-    if mech.pose_spec.type != "rotation" or len(mech.pose_spec.roles) == 3 or np.all(fix == fix[0]):
+    same = _same_frames(mech, F)
+    if not per_design:
+        if not same:     # a rotation pose whose fixed angles differ between designs: each design at the points
+            return _point_values(mech, requests, np.broadcast_to(X, (D,) + X.shape), True)
+        FR = frame_rows(mech, X, fix[:1, None, :])
+    elif same:
         FR = frame_rows(mech, X.reshape(D * n_pts, -1), fix[:1, None, :])[0].reshape(D, n_pts, rows)
-    else:       # a rotation pose whose fixed angles differ between designs: each design's own frames
+    else:       # each design's own frames
         FR = np.stack([frame_rows(mech, X[d], fix[d:d + 1, None, :])[0] for d in range(D)])
-    want = np.zeros(NVAL, dtype=np.bool_)
-    want[sorted({v for _, v, _ in pl})] = True
     keep = np.zeros((D, NVAL, n_pts))
-    res = engine.run(codes, L, F, np.ascontiguousarray(FR), n_pts, want, _flags(want, codes), keep,
-                     spec=engine.tier(kernel_spec(codes)))
+    res = engine.run(codes, L, F, np.ascontiguousarray(FR), n_pts, want, flags, keep,
+                     spec=engine.tier(kernel_spec(codes)), stats=False)
     if res is None:
         return None
     cd = res[2]
@@ -366,13 +435,30 @@ def local_values_at(mech, requests, X):
     if len(dd):
         byname = {r.name: r for r in requests}
         entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
-        extra = _numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, KM, (codes, L, F, D))
+        if per_design:
+            extra = _numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, KM, (codes, L, F, D))
+        else:
+            extra = _numpy_values(mech, X, dd, kk, entries, KM, (codes, L, F, D))
         for i, (name, _, _) in enumerate(pl):
             out[name][dd, kk] = extra[i]
     reach = cd != 0
     for x in out.values():
         x[~reach] = np.nan
     return out, reach
+
+
+def local_values_at(mech, requests, X):
+    """The seam ``Mechanism.local_values_at``: each of the D designs at its own
+    K points X (D, K, dof), ``(values {name: (D, K)}, reachable (D, K))``, NaN
+    where not reachable, or None when the kernel does not compute every
+    request (the caller then runs the numpy path)."""
+    return _point_values(mech, requests, X, True)
+
+
+def local_values(mech, requests, X):
+    """The seam ``Mechanism.local_values``: the D designs at the points X (N,
+    dof), ``(values {name: (D, N)}, reachable (D, N))``, or None."""
+    return _point_values(mech, requests, X, False)
 
 
 def reach_codes(mech, X) -> np.ndarray:

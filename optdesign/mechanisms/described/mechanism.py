@@ -312,7 +312,7 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         return local_values_at(self, requests, X)
 
     def kernel_source(self, title: str) -> str:
-        """The generated routines of the compiled kernel for this shape (:mod:`._codegen`)."""
+        """The generated routines of the engine's specialized tier for this shape (:mod:`optdesign.engine.codegen`)."""
         from .compiled import kernel_source
 
         return kernel_source(self, title)

@@ -1,7 +1,6 @@
 """The 3-P(4S) translational vibration table (seed paper 001): the numpy model
-(:mod:`.model`, the reference), its compiled path (:mod:`.compiled` with the
-numba kernels :mod:`.kernels`, :mod:`.ik_kernels`, :mod:`.fk_kernels`) and its
-MuJoCo check (:mod:`.mujoco`)."""
+(:mod:`.model`, the reference), its compiled path (:mod:`.compiled`: the one
+engine on the mechanism's description) and its MuJoCo check (:mod:`.mujoco`)."""
 from .dynamics import mass_coefficients, platform_mass, solve_T
 from .geometry import E, T, Z, skew
 from .model import PAPER_MASSES, P4S

@@ -140,10 +140,6 @@ class P4S(Mechanism):
         return {"q": q, "n": n, "m": m, "s": s, "w": w, "L": L, "reachable": np.all(ok, axis=-1)}
 
     # ------------------------------------------------------------------ kinematics
-    # The public methods take the compiled path (:mod:`.compiled`) where it
-    # applies and this numpy model otherwise (OPTDESIGN_FAST=0, no numba,
-    # other design shapes); the compiled inverse kinematics and Jacobian are
-    # bitwise the numpy model's, the forward kinematics equal to 1e-12 m.
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Strokes (eq. 5) for platform positions X (..., N, 3); NaN where unreachable."""
         return self.state(X).q
@@ -152,24 +148,17 @@ class P4S(Mechanism):
         """Boolean mask (..., N): every branch has a real inverse-kinematics root."""
         return self.state(X).reachable
 
-    # the state at poses (:mod:`optdesign.mechanisms.state`): the branch state
-    # once, the compiled inverse kinematics and Jacobian where they apply
+    # the state at poses (:mod:`optdesign.mechanisms.state`): the branch state once
     def kinematic_core(self, X: np.ndarray) -> dict[str, np.ndarray]:
         return self.branch_state(X)
 
     def inverse_of(self, st) -> np.ndarray:
-        Q = compiled.inverse(self, st.X)
-        st.notes["q_compiled"] = Q is not None
-        return st.core["q"] if Q is None else Q
+        return st.core["q"]
 
     def reachable_of(self, st) -> np.ndarray:
-        Q = st.q
-        return ~np.isnan(Q[..., 0]) if st.notes["q_compiled"] else st.core["reachable"]
+        return st.core["reachable"]
 
     def jacobian_of(self, st) -> np.ndarray:
-        J = compiled.jacobian(self, st.X)
-        if J is not None:
-            return J
         c = st.core
         return c["n"] / c["s"][..., None]
 
@@ -189,20 +178,19 @@ class P4S(Mechanism):
         ``s_i = c_i - rho e_i = (r_b - rho) e_i + q_i m_i``; of the two mirror
         solutions the one above the plane of the centres is the assembly mode of
         the paper (platform above the sliders).  NaN where the spheres do not meet.
-        ``out``: an optional C-contiguous float (N, 3) array to write into (one
-        design, compiled path).
+        ``out``: an optional array of the result's shape to write into (and return).
         """
-        P = compiled.forward(self, Q, out)
-        if P is not None:
-            return P
-        P = self.forward_numpy(Q)
+        P = self._forward(Q)
         if out is not None:
             out[...] = P
             return out
         return P
 
     def forward_numpy(self, Q: np.ndarray) -> np.ndarray:
-        """:meth:`forward` in numpy (the reference of the compiled kernel)."""
+        """:meth:`forward` (the name the benchmarks and tests of the hand-written FK kernel used)."""
+        return self._forward(Q)
+
+    def _forward(self, Q: np.ndarray) -> np.ndarray:
         Q = np.asarray(Q, dtype=float)
         m = self.rail_directions()
         off = _col(self.r_b - self.rho)
@@ -240,20 +228,16 @@ class P4S(Mechanism):
         return self.state(X).J
 
     def global_statistics(self, requests, X):
-        """The fused compiled kernel's global indices (see :func:`.compiled.global_statistics`)."""
+        """The engine's global indices on this mechanism's description (see :func:`.compiled.global_statistics`)."""
         return compiled.global_statistics(self, requests, X)
 
     def local_values(self, requests, X):
-        """The fused compiled kernel's local values (see :func:`.compiled.local_values`)."""
+        """The engine's local values (see :func:`.compiled.local_values`)."""
         return compiled.local_values(self, requests, X)
 
     def local_values_at(self, requests, X):
-        """The fused kernel, each design at its own points (see :func:`.compiled.local_values_at`)."""
+        """The engine, each design at its own points (see :func:`.compiled.local_values_at`)."""
         return compiled.local_values_at(self, requests, X)
-
-    def bare_kernel(self, X):
-        """The fused kernel alone, for benchmarks (see :func:`.compiled.bare_kernel`)."""
-        return compiled.bare_kernel(self, X)
 
     def rod_angular_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_omega_i (..., N, 3 branches, 3, 3): omega_i = J_omega_i v (eq. 9),

@@ -1,9 +1,10 @@
-"""Fused numba kernels for the 3-P(4S): inverse kinematics, Jacobian, mass
-matrix and the local indices per (design, workspace point).  The forward
-kinematics lives in :mod:`.fk_kernels` (its own numba cache).
-
-Importing this module imports numba; :mod:`.compiled` imports it lazily
-and falls back to the numpy path when that fails.
+"""The benchmark reference: the fused numba kernel written by hand for the
+3-P(4S) alone (inverse kinematics, Jacobian, mass matrix and the local
+indices per (design, workspace point)), which was the mechanism's compiled
+path until the 3-P(4S) moved onto the one engine (optdesign/engine, through
+its description: optdesign/mechanisms/p4s/compiled.py).  Kept to measure the
+engine against (benchmarks/bench_described.py); nothing in the package
+imports it.  ``design_constants(mech)`` below builds its inputs.
 
 Per point (design constants hoisted, see :func:`design_constants`):
 
@@ -40,11 +41,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ...fast._jit import NJIT as _NJIT
-from ...fast._jit import chunk_moments, dot3_dd, lambda_max_psd
-from ...fast._jit import minor_dd as _cross_dd
-from ...formulas import DYN, FRO, SMIN, SMIN2, TWO
-from .geometry import E as _E
+from optdesign.fast._jit import NJIT as _NJIT
+from optdesign.fast._jit import chunk_moments, dot3_dd, lambda_max_psd
+from optdesign.fast._jit import minor_dd as _cross_dd
+from optdesign.formulas import DYN, FRO, SMIN, SMIN2, TWO
+from optdesign.mechanisms.p4s.geometry import E as _E
 
 #: points per task: the unit of parallel work and of the partial reductions
 CHUNK = 512
@@ -541,3 +542,39 @@ def _combine(d, nch, want, cnt, part, stats, counts):
         stats[v, 1, d] = lo_v
         stats[v, 2, d] = hi_v
         stats[v, 3, d] = m2
+
+
+# ---------------------------------------------------------------------- inputs (the former compiled path's)
+def design_constants(mech) -> np.ndarray:
+    """Per-design constants (D, 15) of a P4S whose parameters are scalars, (D,)
+    or (D, 1): ``rho - r_b``, L, L^2, the mass-matrix coefficients c0, alpha,
+    beta and the nine components of the rail directions m_i (the numpy model's
+    own expressions)."""
+    from optdesign.mechanisms.p4s.dynamics import mass_coefficients
+
+    shape = mech.design_shape
+    D = int(np.prod(shape)) if len(shape) else 1
+    rho = np.asarray(mech.rho, dtype=float)
+    off = np.broadcast_to(rho - np.asarray(mech.r_b, dtype=float), shape).reshape(D)
+    L = np.broadcast_to(np.asarray(mech.L, dtype=float), shape).reshape(D)
+    m = np.broadcast_to(mech.rail_directions(), shape + (3, 3)).reshape(D, 9)
+    c0, alpha, beta = (np.broadcast_to(c, shape).reshape(D) for c in mass_coefficients(mech))
+    P = np.empty((D, 15))
+    P[:, 0] = off
+    P[:, 1] = L
+    P[:, 2] = L ** 2
+    P[:, 3] = c0
+    P[:, 4] = alpha
+    P[:, 5] = beta
+    P[:, 6:15] = m
+    return np.ascontiguousarray(P)
+
+
+def summary_means(mech, X, want=(True, True, False, True, False)):
+    """Means over the reachable points of the kernel's values (dynamic,
+    sigma_min^2, sigma_min, cond_fro, cond_2) for the designs of mech, the
+    ill-conditioned points left out (the benchmark's bare call)."""
+    sums, counts, _, _ = p4s_summary(design_constants(mech), np.ascontiguousarray(X, dtype=float),
+                                     np.array(want, dtype=np.bool_), bool(want[4]))
+    with np.errstate(all="ignore"):
+        return sums[:, 0] / counts
