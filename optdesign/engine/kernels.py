@@ -61,10 +61,10 @@ from . import layout as _layout
 from .codegen import GLOBALS, KernelSpec, routine_source
 from .eigen import COLS, ROWS, bisect_flagged, lmax
 from .inverse import inverse
-from .legs import legs, pose_rows, rigid
-from .mass import dyn
 from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG, NMAX, NVAL,
                     NVS, SMIN, SMIN2, SROWS, TWO, VDET, VI2, VLJ, VLU, VLW, VMASK, VOK)
+from .legs import legs, pose_rows, rigid
+from .mass import dyn
 
 #: numba's cache of these kernels watches this file only, while the code of
 #: legs.py, inverse.py, eigen.py, mass.py and codegen.py, the numbers of
@@ -73,10 +73,10 @@ from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, IFRO, NB, NE
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "5a133f8646aff7a3"
+ENGINE_DIGEST = "7daecb97cede302b"
 
 _SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py", "engine/layout.py",
-            "engine/codegen.py", "formulas.py", "fast/_jit.py")
+            "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py")
 
 
 def engine_digest() -> str:

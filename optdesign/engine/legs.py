@@ -19,7 +19,7 @@ from numba.extending import register_jitable
 
 from ..fast._jit import JITABLE as _JITABLE
 from .layout import (BA, BLK, BS, BW, CT_ROLL, FCEN, FCOM, FIP, FMP, FRE, FRO_, FRR, GAL, GDE, GG, GGA, GK, GR, LA,
-                     LE1, LE2, LFROD, LI12, LIROD, LLA, LLR, LM1, LM2, LMACT, LMROD, LP, LR0, LS0, LSG, LU, VOK)
+                    LE1, LE2, LFROD, LI12, LIROD, LLA, LLR, LM1, LM2, LMACT, LMROD, LP, LR0, LS0, LSG, LU, VOK)
 
 __all__ = ["legs", "pose_rows", "rigid"]
 

@@ -24,14 +24,13 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from ..base import Mechanism
+from ..params import Param
 from . import kinematics as _kin
 from .constants import Constants, constants
 from .dynamics import potential_energy, twist_dynamics
 from .legs import leg_state
 from .poses import rate_bias, rate_map, twist_columns
 from .schema import Description
-
-from ..params import Param
 
 __all__ = ["DescribedMechanism", "make_class", "KINEMATIC_INDICES"]
 

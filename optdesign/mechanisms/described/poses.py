@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .schema import PoseSpec, ROLES
+from .schema import ROLES, PoseSpec
 
 __all__ = ["Frames", "frames", "rate_map", "rate_bias", "twist_columns"]
 

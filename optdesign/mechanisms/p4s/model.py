@@ -29,8 +29,16 @@ import numpy as np
 from .. import register
 from ..base import ExtraObjective, Mechanism
 from ..params import Param
-from .dynamics import (gravity_force, mass_coefficients, platform_mass, rod_angular_map, rod_velocity_map,  # noqa: F401
-                       solve_T, velocity_force, velocity_products)
+from .dynamics import (  # noqa: F401
+    gravity_force,
+    mass_coefficients,
+    platform_mass,
+    rod_angular_map,
+    rod_velocity_map,
+    solve_T,
+    velocity_force,
+    velocity_products,
+)
 from .geometry import E, T, Z, _col, _p, skew  # noqa: F401
 
 #: the paper's mass data (section 2.4)

@@ -46,7 +46,7 @@ from typing import Callable
 
 import numpy as np
 
-from .model import E, T, P4S
+from .model import P4S, E, T
 from .trajectories import Trajectory, large_trajectory, paper_trajectory  # noqa: F401
 
 __all__ = [
