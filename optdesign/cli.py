@@ -243,6 +243,9 @@ def _main(argv: list[str] | None) -> int:
     if not getattr(args, "func", None):
         return _error("expected a command (see 'optdesign --help')")
     args.process_entry = argv is None   # this process is the command (not a caller in-process)
+    from . import fast
+
+    old_notice = fast.set_compile_notice(fast.terminal_notice())   # a run sets its own (its progress lines)
     try:
         rc = args.func(args)
         return 0 if rc is None else int(rc)
@@ -254,6 +257,8 @@ def _main(argv: list[str] | None) -> int:
         return _error(str(exc))
     except BrokenPipeError:  # output piped into head and the like
         return 0
+    finally:
+        fast.set_compile_notice(old_notice)
 
 
 if __name__ == "__main__":  # pragma: no cover

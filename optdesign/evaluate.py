@@ -213,6 +213,22 @@ def global_indices_error(config: Config, designs, workspace: Workspace | None = 
     return [{k: float(ev.error[k][i]) for k in config.indices} for i in range(D)]
 
 
+#: a run's estimated kernel work (design-points, :func:`run_kernel_work`) from
+#: which its mechanism's shape runs on the engine's specialized tier (compiled
+#: once per machine and shape, about 30 s; twice the generic tier's speed for
+#: n >= 4, a quarter more for n <= 3; the same results): about a minute of
+#: kernel time on two cores, where compiling pays
+SPECIALIZE_WORK = 3e8
+
+
+def run_kernel_work(config: Config, points: int) -> float:
+    """A rough count of a run's design-point evaluations: the workspace's
+    points times a stage's population and generations times the stages (one
+    per index and sense, two for the weighted sums)."""
+    opt = config.optimizer
+    return float(points) * opt.population * opt.generations * (2 * len(config.indices) + 2)
+
+
 class Evaluator:
     """Design vectors -> everything the optimizer needs, in one pass per population.
 
@@ -280,12 +296,15 @@ class Evaluator:
         if not free:
             raise ConfigError(config.source, "design_variables", "no free design variable: give at least one 'bounds'")
         opt = config.optimizer
-        return cls(mechanism_class(config), config.parameters,
+        mech = mechanism_class(config)
+        ws = workspace if workspace is not None else workspace_of(config)
+        if run_kernel_work(config, ws.n) >= SPECIALIZE_WORK:
+            mech.specialize_kernels()
+        return cls(mech, config.parameters,
                    {k: dv.value for k, dv in config.design_variables.items()}, free,
                    np.array([config.design_variables[k].bounds[0] for k in free]),
                    np.array([config.design_variables[k].bounds[1] for k in free]),
-                   workspace if workspace is not None else workspace_of(config),
-                   index_requests(config), {k: s.sense for k, s in config.indices.items()},
+                   ws, index_requests(config), {k: s.sense for k, s in config.indices.items()},
                    opt.singularity_threshold, opt.stroke_limits, tuple(opt.extra_objectives),
                    opt.worst_case, opt.constraint_margin)
 

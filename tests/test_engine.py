@@ -167,3 +167,58 @@ def test_the_tier_choice(monkeypatch):
         assert engine.tier(spec) == spec
     finally:
         engine._SPECIALIZED.discard(spec)
+
+
+def test_a_large_run_specializes_its_shape(monkeypatch):
+    """Evaluator.from_config puts a run whose estimated kernel work reaches
+    SPECIALIZE_WORK on the specialized tier of its shape, and leaves a small one."""
+    from optdesign.config import load_config
+    from optdesign.evaluate import SPECIALIZE_WORK, Evaluator, run_kernel_work, workspace_of
+    from optdesign.mechanisms.described.packing import description_codes, kernel_spec
+
+    monkeypatch.delenv(engine.TIER_VAR, raising=False)
+    cfg = load_config(__import__("conftest").CONFIGS / "delta_opt.yaml")
+    ev = Evaluator.from_config(cfg)
+    spec = kernel_spec(description_codes(ev.mechanism.description))
+    assert run_kernel_work(cfg, workspace_of(cfg).n) < SPECIALIZE_WORK and engine.tier(spec) is None
+    import yaml
+
+    from optdesign.config import parse_config
+
+    raw = yaml.safe_load((__import__("conftest").CONFIGS / "delta_opt.yaml").read_text())
+    raw["optimizer"].update(population=2000, generations=1000)
+    big = parse_config(yaml.safe_dump(raw))
+    try:
+        assert run_kernel_work(big, workspace_of(big).n) >= SPECIALIZE_WORK
+        Evaluator.from_config(big)
+        assert engine.tier(spec) == spec
+    finally:
+        engine._SPECIALIZED.discard(spec)
+
+
+@pytest.mark.slow
+def test_the_specialized_tier_gives_the_generic_tiers_bits(monkeypatch):
+    """The Gough-Stewart platform (n = 6, spatial pose, strut masses) through
+    the specialized tier (its generated routines compiled: about 30 CPU-s)
+    and through the generic one: every statistic and every local value the same."""
+    from optdesign.config import load_config
+    from optdesign.evaluate import index_requests, mechanism_class, workspace_of
+
+    cfg = load_config(__import__("conftest").CONFIGS / "gough_stewart.yaml")
+    X = workspace_of(cfg).X[:1500]
+    rng = np.random.default_rng(3)
+    des = {k: dv.value * rng.uniform(0.97, 1.03, (7, 1)) for k, dv in cfg.design_variables.items()}
+    req = index_requests(cfg, list(cfg.indices))
+    out = {}
+    for tier in ("generic", "specialized"):
+        monkeypatch.setenv(engine.TIER_VAR, tier)
+        mech = mechanism_class(cfg)(**{**cfg.parameters, **des})
+        summary, reach = mech.global_statistics(req, X)
+        vals, reach2 = mech.local_values_at(req, np.ascontiguousarray(np.broadcast_to(X[:200], (7, 200, 6))))
+        out[tier] = (summary, reach, vals, reach2)
+    a, b = out["generic"], out["specialized"]
+    assert np.array_equal(a[1], b[1]) and np.array_equal(a[3], b[3])
+    for name in a[0]:
+        for st in ("mean", "min", "max", "std", "count"):
+            assert np.array_equal(a[0][name][st], b[0][name][st], equal_nan=True), (name, st)
+        assert np.array_equal(a[2][name], b[2][name], equal_nan=True), name

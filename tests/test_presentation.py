@@ -267,23 +267,57 @@ def test_tables_fit_the_terminal(tmp_path):
 
 
 def test_compile_notice_before_a_cold_kernel_module(monkeypatch):
-    """The notice is given once, before the first kernel module without a
-    cache is loaded, and not for one whose cache is there."""
+    """The notice is given once, when the kernels of the first module without a
+    cache run (compile), not for one whose cache is there; what it returns is
+    called with the seconds the compile took."""
     import optdesign.fast as fast
 
-    said = []
-    old = fast.set_compile_notice(said.append)
+    said, ended = [], []
+
+    def notice(name):
+        said.append(name)
+        return ended.append
+
+    old = fast.set_compile_notice(notice)
     try:
         monkeypatch.setattr(fast, "kernel_cache_present", lambda name: name != "colorsys")
-        fast.KernelModule("json").get()
+        warm = fast.KernelModule("json")
+        assert warm.get() is not None
+        with warm.compiling():
+            pass
         assert said == []
-        assert fast.KernelModule("colorsys").get() is not None
-        assert said == ["colorsys"]
-        fast.KernelModule("colorsys").get()
+        cold = fast.KernelModule("colorsys")
+        assert cold.get() is not None and said == []          # importing compiles nothing
+        with cold.compiling():
+            pass
+        assert said == ["colorsys"] and len(ended) == 1 and ended[0] >= 0.0
+        with cold.compiling():
+            pass
+        again = fast.KernelModule("colorsys")
+        again.get()
+        with again.compiling():
+            pass
         assert said == ["colorsys"]           # once
     finally:
         fast.set_compile_notice(old)
         fast.KernelModule.instances[:] = [k for k in fast.KernelModule.instances if k.name not in ("json", "colorsys")]
+
+
+def test_terminal_notice_counts_seconds_only_on_a_terminal():
+    import io
+
+    import optdesign.fast as fast
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    assert fast.terminal_notice(io.StringIO())("x") is None          # not a terminal: nothing
+    out = Tty()
+    end = fast.terminal_notice(out)("x")
+    end(21.4)
+    text = out.getvalue()
+    assert text.startswith("optdesign: compiling the engine's kernels") and text.endswith("done in 21 s\n")
 
 
 def test_cache_detection_sees_an_empty_cache(tmp_path):

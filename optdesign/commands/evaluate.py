@@ -60,7 +60,14 @@ def run(args) -> int:
     if bad is not None:   # every index would be '-': an error, not a table of dashes
         key = f"designs.{bad}" if bad in (cfg.raw.get("designs") or {}) else "design_variables"
         raise ConfigError(cfg.source, key, unreachable_message(cfg, bad))
-    res = evaluate_named(cfg, names, ws)
+    from contextlib import nullcontext
+
+    from .. import fast
+
+    # a small evaluation takes the numpy path (the reference): loading the
+    # compiled engine would cost more than it saves (fast.SMALL_WORK)
+    with nullcontext() if fast.worth_compiling(len(names) * ws.n) else fast.disabled():
+        res = evaluate_named(cfg, names, ws)
     if args.json:
         out = {"config": cfg.source, "mechanism": cfg.mechanism, "workspace_points": ws.n,
                "error_method": error_method(ws), "designs": {}}

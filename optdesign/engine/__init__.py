@@ -134,7 +134,8 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
             f.result()
     else:
         # one thread, or the machine's first call (it compiles the kernel): this thread's share first
-        KERNELS.guarded(task, 0)
+        with KERNELS.compiling():
+            KERNELS.guarded(task, 0)
         if KERNELS.module is None:      # it failed (a warning said why): the numpy path from now on
             return None
         if nw > 1:

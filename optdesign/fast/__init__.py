@@ -21,7 +21,8 @@ import os
 import warnings
 from contextlib import contextmanager
 
-__all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "KernelModule", "set_compile_notice", "kernel_cache_present"]
+__all__ = ["ENV_VAR", "enabled", "set_enabled", "disabled", "KernelModule", "set_compile_notice", "kernel_cache_present",
+           "worth_compiling", "SMALL_WORK", "terminal_notice"]
 
 ENV_VAR = "OPTDESIGN_FAST"
 
@@ -33,6 +34,26 @@ def enabled() -> bool:
     if _override is not None:
         return _override
     return os.environ.get(ENV_VAR, "1").strip().lower() not in ("0", "false", "off", "no")
+
+
+#: design-points (designs x workspace points) below which a one-shot command
+#: (``optdesign evaluate``) takes the numpy path unless OPTDESIGN_FAST=1 asks
+#: for the compiled one: loading numba and the cached kernels costs about a
+#: second, which the numpy path does not spend below this much work (10-100
+#: thousand design-points a second for the described mechanisms)
+SMALL_WORK = 50_000
+
+
+def worth_compiling(work: int) -> bool:
+    """Whether a one-shot computation of ``work`` design-points should take the
+    compiled path: always when it was asked for (``set_enabled(True)``,
+    ``OPTDESIGN_FAST=1``), never when switched off, else from SMALL_WORK on."""
+    if _override is not None:
+        return _override
+    value = os.environ.get(ENV_VAR)
+    if value is not None:
+        return enabled()
+    return work >= SMALL_WORK
 
 
 def set_enabled(value: bool | None) -> None:
@@ -67,11 +88,49 @@ _compile_notice = None
 
 def set_compile_notice(fn):
     """``fn(module_name)`` is called once, before the first kernel module whose
-    compiled code is not in numba's cache is loaded (its kernels then compile,
-    which takes a while once per machine); None: no notice.  Returns the previous one."""
+    compiled code is not in numba's cache compiles (once per machine); if it
+    returns a callable, that is called with the seconds the compile took when
+    it ends (its progress: see :func:`terminal_notice`).  None: no notice.
+    Returns the previous one."""
     global _compile_notice
     old, _compile_notice = _compile_notice, fn
     return old
+
+
+def terminal_notice(stream=None):
+    """A compile notice for a terminal: one line on ``stream`` (stderr) that
+    counts the seconds while the kernels compile, then says how long it took;
+    nothing where the stream is not a terminal."""
+    import sys
+    import threading
+
+    out = stream or sys.stderr
+
+    def notice(name):
+        if not getattr(out, "isatty", lambda: False)():
+            return None
+        text = "optdesign: compiling the engine's kernels (once per machine; every mechanism shape shares them)"
+        stop = threading.Event()
+
+        def tick():
+            k = 0
+            while not stop.wait(1.0):
+                k += 1
+                out.write(f"\r{text}: {k} s")
+                out.flush()
+
+        out.write(text)
+        out.flush()
+        th = threading.Thread(target=tick, daemon=True)
+        th.start()
+
+        def end(seconds):
+            stop.set()
+            th.join()
+            out.write(f"\r{text}: done in {seconds:.0f} s\n")
+            out.flush()
+        return end
+    return notice
 
 
 def kernel_cache_present(module_name: str) -> bool:
@@ -110,23 +169,47 @@ class KernelModule:
         self.name = name
         self.module = None
         self.error: BaseException | None = None
+        #: the module was loaded with no cache of its kernels (they compile at their first call)
+        self.cold = False
 
     def get(self):
         """The module, or None if it cannot be used here."""
         if self.module is None and self.error is None:
             _passive_workers()
-            global _compile_notice
-            if _compile_notice is not None and not kernel_cache_present(self.name):
-                notice, _compile_notice = _compile_notice, None   # once: the other modules follow at once
-                try:
-                    notice(self.name)
-                except Exception:  # noqa: BLE001 - a notice never stops the computation
-                    pass
+            self.cold = not kernel_cache_present(self.name)
             try:
                 self.module = importlib.import_module(self.name)
             except Exception as exc:  # numba missing or broken: the numpy path
                 self.error = exc
         return self.module
+
+    @contextmanager
+    def compiling(self):
+        """Around a first call of the module's kernels: when they compile (no
+        cache on this machine), the compile notice (once per process) and, if
+        it returned one, its end with the seconds taken."""
+        global _compile_notice
+        if not self.cold or _compile_notice is None:
+            yield
+            return
+        self.cold = False
+        notice, _compile_notice = _compile_notice, None   # once: the other modules follow at once
+        done = None
+        try:
+            done = notice(self.name)
+        except Exception:  # noqa: BLE001 - a notice never stops the computation
+            pass
+        import time
+
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            if callable(done):
+                try:
+                    done(time.perf_counter() - t0)
+                except Exception:  # noqa: BLE001
+                    pass
 
     def require(self):
         """The module; RuntimeError if it cannot be used."""

@@ -229,6 +229,14 @@ class Mechanism:
         generated kernel (a hand-written one, or none)."""
         return None
 
+    @classmethod
+    def specialize_kernels(cls) -> None:
+        """Ask the compiled path to run this mechanism's shape on its
+        specialized routines from now on in this process (a long computation,
+        such as a large optimization run, whose kernel time outweighs compiling
+        them once per machine; the results are the same bits).  No compiled
+        path: nothing to do."""
+
     def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's local values for these requests at the points X
         (N, dof): ``(values, reachable)`` with ``values[request.name]`` (D, N)

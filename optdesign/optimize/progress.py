@@ -28,7 +28,8 @@ from .lines import _clock, _cut_words, _isatty, fit_line, stage_line, wrap_line 
 __all__ = ["Progress", "RemoteProgress", "CountProgress", "stage_line", "fit_line", "wrap_line", "COMPILE_NOTICE"]
 
 #: said before kernels compile (the first run on a machine)
-COMPILE_NOTICE = "compiling kernels (once per machine, about 15-30 s; later runs load them from the cache)"
+COMPILE_NOTICE = ("compiling the engine's kernels (once per machine, about 20-40 s; every mechanism shares them, "
+                  "later runs load them from the cache)")
 
 
 class _Stage:
@@ -198,9 +199,11 @@ class Progress:
         self._ensure()
         self._poke()
 
-    def compiling(self, what: str = "") -> None:
-        """The notice before kernels compile (the first run on a machine)."""
+    def compiling(self, what: str = ""):
+        """The notice before kernels compile (the first run on a machine); the
+        line when they are compiled (the callable returned)."""
         self._print(COMPILE_NOTICE)
+        return lambda seconds: self._print(f"kernels compiled in {_clock(seconds)}")
 
     def phase(self, text: str, short: str | None = None) -> None:
         """The run's final work after its stages (final results, report

@@ -310,6 +310,14 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return local_values_at(self, requests, X)
 
+    @classmethod
+    def specialize_kernels(cls) -> None:
+        """This shape on the engine's specialized tier (see ``Mechanism.specialize_kernels``)."""
+        from ... import engine
+        from .packing import description_codes, kernel_spec
+
+        engine.specialize(kernel_spec(description_codes(cls.description)))
+
     def kernel_source(self, title: str) -> str:
         """The generated routines of the engine's specialized tier for this shape (:mod:`optdesign.engine.codegen`)."""
         from .compiled import kernel_source

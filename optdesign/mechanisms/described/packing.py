@@ -9,7 +9,7 @@ import numpy as np
 
 from ...engine import layout as K
 
-__all__ = ["pack", "shape_codes", "kernel_spec", "kernel_source", "frame_rows"]
+__all__ = ["pack", "shape_codes", "description_codes", "kernel_spec", "kernel_source", "frame_rows"]
 
 _PTYPE = {"translation": 0, "planar": 1, "rotation": 2, "spatial": 3}
 #: pose-column kinds of the kernel in the rates convention: a twist component, or roll's / pitch's Euler column
@@ -69,17 +69,24 @@ def _pack(mech):
 
 def shape_codes(mech):
     """(ptype, ct, kind, branch): the pose type, the pose-column kinds, the leg
-    kinds and branches of mech (the same for all its designs)."""
+    kinds and branches of mech (the same for all its designs: its description's)."""
+    return description_codes(mech.description)
+
+
+def description_codes(desc):
+    """:func:`shape_codes` of a description (no design needed)."""
+    from .constants import BRANCH_CODES, KIND_CODES
     from .poses import twist_columns
 
-    spec = mech.pose_spec
+    spec = desc.pose
     ptype = _PTYPE[spec.type]
     if spec.jacobian == "angular_velocity" or ptype < 2:
         ct = np.array(twist_columns(spec), dtype=np.int64)
     else:
         ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
-    C = mech.constants
-    return (ptype, ct, np.ascontiguousarray(C.kind, dtype=np.int64), np.ascontiguousarray(C.branch, dtype=np.int64))
+    kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
+    branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
+    return ptype, ct, kind, branch
 
 
 def kernel_spec(codes):

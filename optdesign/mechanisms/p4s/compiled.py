@@ -106,8 +106,12 @@ def pack(mech):
     L[:, :, K.LE2] = 0.0
     F = np.zeros((D, K.NF))
     F[:, K.FMP] = per(mech.m_platform)
-    codes = (0, np.array([0, 1, 2], dtype=np.int64), np.zeros(3, dtype=np.int64), np.zeros(3, dtype=np.int64))
-    return codes, L, F, D
+    return SHAPE, L, F, D
+
+
+#: the engine's shape codes of the 3-P(4S): a translation pose (x, y, z
+#: columns), three prismatic legs on the smaller root (eq. 5)
+SHAPE = (0, np.array([0, 1, 2], dtype=np.int64), np.zeros(3, dtype=np.int64), np.zeros(3, dtype=np.int64))
 
 
 def _flat(mech) -> bool:

@@ -247,6 +247,15 @@ class P4S(Mechanism):
         """The engine, each design at its own points (see :func:`.compiled.local_values_at`)."""
         return compiled.local_values_at(self, requests, X)
 
+    @classmethod
+    def specialize_kernels(cls) -> None:
+        """The description's shape on the engine's specialized tier (``Mechanism.specialize_kernels``)."""
+        from ..described.packing import kernel_spec
+
+        from ... import engine
+
+        engine.specialize(kernel_spec(compiled.SHAPE))
+
     def rod_angular_velocity_map(self, X: np.ndarray) -> np.ndarray:
         """J_omega_i (..., N, 3 branches, 3, 3): omega_i = J_omega_i v (eq. 9),
         ``(skew(n_i) - (n_i x m_i) n_i^T / (n_i.m_i)) / L``."""
