@@ -86,6 +86,8 @@ def workers() -> int:
 
 
 _POOL = None
+#: design-points below which a call runs on the calling thread only
+SMALL_CALL = 8192
 
 
 def _pool(nw):
@@ -119,7 +121,8 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     part = np.zeros((D, nch, NVAL, 4))
     cnt = np.zeros((D, nch), dtype=np.int64)
     keep = np.zeros((0, 0, 0)) if keep is None else keep
-    nw = 1 if D * nch == 1 else max(1, min(workers(), D * nch))
+    # small calls on this thread alone: waking a pool thread costs more than it saves
+    nw = 1 if D * N < SMALL_CALL else max(1, min(workers(), D * nch))
     sel = None if spec is None else spec.numba_args()
     args = (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel)
 

@@ -36,7 +36,8 @@ same order where the order decides the reachable mask:
   :func:`_rod_coefficients`, :func:`_leg_strut`), J_i the Jacobian row and K_i
   the row of ``t.bdot``;
 * a reach code: 0 unreachable, 1 reachable, 2 reachable but ill-conditioned
-  (``cond_F(J) >= HARD`` or anything not finite), left to the numpy path.
+  (``cond_F(J) >= HARD``, HARD_SMALL for n <= 3, or anything not finite),
+  left to the numpy path.
 
 The reductions: fixed chunks of CHUNK points per design, each with its count,
 sum, min, max and centred sum of squares in point order, combined in chunk
@@ -61,8 +62,8 @@ from . import layout as _layout
 from .codegen import GLOBALS, KernelSpec, routine_source
 from .eigen import COLS, ROWS, bisect_flagged, lmax
 from .inverse import inverse
-from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG, NMAX, NVAL,
-                    NVS, SMIN, SMIN2, SROWS, TWO, VDET, VI2, VLJ, VLU, VLW, VMASK, VOK)
+from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, HARD_SMALL, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG,
+                    NMAX, NVAL, NVS, SMIN, SMIN2, SROWS, TWO, VDET, VI2, VLJ, VLU, VLW, VMASK, VOK)
 from .legs import legs, pose_rows, rigid
 from .mass import dyn
 
@@ -73,7 +74,7 @@ from .mass import dyn
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "7daecb97cede302b"
+ENGINE_DIGEST = "f74da7cc5100c15d"
 
 _SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py", "engine/layout.py",
             "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py")
@@ -231,6 +232,7 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
                     s += x * x
                 vb[(COL0 + c) * CHUNK + j] = s
     inverse_sel(J, U, V, S, n, m, sel)
+    hard = HARD if n >= 4 else HARD_SMALL
     for j in range(m):
         s = 0.0
         for i in range(n * n):
@@ -238,7 +240,7 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
             s += x * x
         cf = math.sqrt(s * V[VI2 * BLK + j])
         det = V[VDET * BLK + j]
-        good = (V[VOK * BLK + j] != 0.0) & (det > 0.0) & (cf < HARD)
+        good = (V[VOK * BLK + j] != 0.0) & (det > 0.0) & (cf < hard)
         V[VMASK * BLK + j] = 1.0 if good else 0.0
         cb[j] = (1.0 if good else 2.0) if V[VOK * BLK + j] != 0.0 else 0.0
         vb[FRO * CHUNK + j] = cf

@@ -15,8 +15,15 @@ from ..formulas import COL0, DET, DYN, FRO, IFRO, NVAL, SMIN, SMIN2, TWO  # noqa
 CHUNK = 256
 #: points per structure-of-arrays block (rows of the scratch arrays)
 BLK = 64
-#: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the numpy path)
+#: cond_F(J) = ||J||_F ||J^-1||_F from which a point is left to LAPACK (the
+#: numpy path), for n >= 4 (Householder QR: its R^-1 loses eps cond(J));
+#: for n <= 3 (the adjugate with compensated minors, exact to a few ulps at
+#: any conditioning, and closed-form eigenvalues) only beyond HARD_SMALL: the
+#: numpy path's SVD is no more accurate there, and the optima of constrained
+#: runs lie on the singularity limit (cond = 1000 by default), where a search
+#: would otherwise hand nearly every pose it tries to the numpy path
 HARD = 1000.0
+HARD_SMALL = 1e12
 #: local values (rows of the kernel's output): DYN, SMIN2, SMIN, FRO, TWO, DET,
 #: IFRO, COL0 + a (squared norm of column a of J: axis stiffness), NVAL, the ids
 #: of the table of local values optdesign.formulas (imported above)

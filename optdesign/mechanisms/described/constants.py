@@ -123,8 +123,16 @@ def constants(desc: Description, params: dict) -> Constants:
 def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
     n = len(desc.legs)
 
+    memo = {}
+
     def ev(tree):
-        return evaluate(tree, env)          # a float or an array that broadcasts to shape
+        # a float or an array that broadcasts to shape; a pattern's legs share
+        # their trees (one expression, several angles): each is evaluated once
+        key = id(tree)
+        got = memo.get(key)
+        if got is None:
+            got = memo[key] = (tree, evaluate(tree, env))
+        return got[1]
 
     def vec(trees):
         out = np.empty(shape + (len(trees),))

@@ -59,6 +59,29 @@ class DescribedMeta(type):
     description (see optdesign.mechanisms.described)."""
 
 
+class _Recent:
+    """The last ``size`` values by key (first in, first out; no locking: a
+    process's evaluations run on one thread)."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self.data: dict = {}
+
+    def get(self, key):
+        return self.data.get(key)
+
+    def put(self, key, value) -> None:
+        if len(self.data) >= self.size:
+            self.data.pop(next(iter(self.data)))
+        self.data[key] = value
+
+
+#: constants of the designs evaluated last (any described class; keyed by its name and parameters)
+_CONSTANTS = _Recent(512)
+#: the engine's packing of the same (optdesign.mechanisms.described.packing)
+PACKS = _Recent(512)
+
+
 class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     """A mechanism whose legs, joints and dimensions are data (see
     docs/mechanisms-as-data.md).  Subclasses are made by :func:`make_class`."""
@@ -85,9 +108,26 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     def constants(self) -> Constants:
         c = self.__dict__.get("_constants")
         if c is None:
-            c = constants(self.description, self.params)
+            key = self.params_key()
+            c = _CONSTANTS.get(key)
+            if c is None:
+                c = constants(self.description, self.params)
+                _CONSTANTS.put(key, c)
             self.__dict__["_constants"] = c
         return c
+
+    def params_key(self) -> tuple:
+        """The parameters' values (class, names, shapes and bytes): equal keys,
+        equal constants (an optimizer makes a new mechanism for every design it
+        visits, and visits many twice)."""
+        key = self.__dict__.get("_params_key")
+        if key is None:
+            items = []
+            for k in sorted(self.params):
+                a = np.asarray(self.params[k], dtype=float)
+                items.append((k, a.shape, a.tobytes()))
+            key = self.__dict__["_params_key"] = (type(self).name, tuple(items))
+        return key
 
     @property
     def pose_spec(self):

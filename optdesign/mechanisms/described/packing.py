@@ -22,7 +22,14 @@ def pack(mech):
     worst-case search calls the kernel thousands of times for one design)."""
     memo = mech.__dict__.get("_engine_pack")
     if memo is None:
-        memo = _pack(mech)
+        from .mechanism import PACKS
+
+        key = mech.params_key() if hasattr(mech, "params_key") else None
+        memo = PACKS.get(key) if key is not None else None
+        if memo is None:
+            memo = _pack(mech)
+            if key is not None:
+                PACKS.put(key, memo)
         mech.__dict__["_engine_pack"] = memo
     return memo
 
