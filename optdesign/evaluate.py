@@ -7,7 +7,9 @@ means over W), vectorized over a population.
   integral of eq. 29 (the workspace's :class:`~optdesign.workspace.ErrorRule`);
   the mechanism's compiled path answers when it has one
   (``Mechanism.global_statistics``, or ``Mechanism.local_values`` for
-  weighted rules), the numpy path otherwise;
+  weighted rules), the numpy path otherwise; :func:`evaluate_designs` does
+  the same from plain pieces (what ``evaluate`` makes of a config, and what
+  :meth:`Evaluator.evaluation` hands it);
 * :func:`global_indices_error` — the error estimates of named or given designs
   as plain floats (for ``results.json``'s ``global_indices_error``);
 * :class:`Evaluator` — what the optimizer calls: design vectors (D, n_var) ->
@@ -29,9 +31,9 @@ from .statistics import adaptive_means, mean_errors, statistics
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 from . import worstcase
 
-__all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests", "check_size", "global_indices_error", "error_method", "unreachable_design",
-           "unreachable_message"]
+__all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_designs", "evaluate_named", "workspace_of", "build",
+           "mechanism_class", "index_requests", "check_size", "global_indices_error", "error_method",
+           "unreachable_design", "unreachable_message"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -100,7 +102,7 @@ class Evaluation:
     status: dict[str, np.ndarray] | None = None
 
 
-def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
+def _stack_designs(defaults: Mapping[str, float], designs) -> dict[str, np.ndarray]:
     if isinstance(designs, Mapping):
         arr = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in designs.items()}
     else:  # a list of mappings
@@ -110,8 +112,8 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
         arr = {k: np.array([d[k] for d in designs], dtype=float) for k in keys}
     D = max(v.shape[0] for v in arr.values())
     full = {}
-    for k, dv in config.design_variables.items():
-        v = arr.get(k, np.array([dv.value]))
+    for k, value in defaults.items():
+        v = arr.get(k, np.array([value]))
         full[k] = np.broadcast_to(v, (D,)).astype(float)
     return full
 
@@ -139,13 +141,24 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
     ``errors`` (default) each mean also gets its error estimate (an extra
     pass over the points of the workspace's error rule)."""
     ws = workspace if workspace is not None else workspace_of(config)
-    full = _stack_designs(config, designs)
     try:
-        check_size(ws.n, len(next(iter(full.values()))))
+        return evaluate_designs(mechanism_class(config), config.parameters,
+                                {k: dv.value for k, dv in config.design_variables.items()},
+                                index_requests(config, index_names), designs, ws, keep_local, errors)
     except WorkspaceTooLarge as exc:
         raise ConfigError(config.source, "workspace", str(exc)) from None
-    requests = index_requests(config, index_names)
-    mech, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws, requests, keep_local)
+
+
+def evaluate_designs(mechanism: type[Mechanism], fixed: Mapping[str, float], defaults: Mapping[str, float],
+                     requests: list[IndexRequest], designs, ws: Workspace, keep_local: bool = False,
+                     errors: bool = True) -> Evaluation:
+    """:func:`evaluate` from plain pieces: the mechanism class, its fixed
+    parameters, every design variable at its value (``defaults``, SI), the
+    index requests, the designs (as :func:`evaluate` takes them) and the
+    workspace.  Raises WorkspaceTooLarge past the evaluation limit."""
+    full = _stack_designs(defaults, designs)
+    check_size(ws.n, len(next(iter(full.values()))))
+    mech, summary, reach, local = _evaluate(mechanism, fixed, full, ws, requests, keep_local)
     if ws.spec.sampling == "adaptive":
         frac, err, status = adaptive_means(mech, ws, requests, reach.shape[0], summary)
         return Evaluation(summary, reach, frac, local, ws, err if errors else None, error_method(ws), status)
@@ -300,6 +313,13 @@ class Evaluator:
 
     def vector(self, design: Mapping[str, float]) -> np.ndarray:
         return np.array([design[k] for k in self.free], dtype=float)
+
+    def evaluation(self, designs, workspace: Workspace | None = None, errors: bool = True) -> Evaluation:
+        """The global statistics of the indices (with their errors, as
+        :func:`evaluate`) of ``designs`` (parameter mappings, the others at
+        their values) over this evaluator's workspace or ``workspace``."""
+        return evaluate_designs(self.mechanism, self.fixed, self.defaults, self.requests, designs,
+                                self.workspace if workspace is None else workspace, errors=errors)
 
     def extra_values(self, designs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         return {k: np.asarray(e.func(designs), dtype=float) for k, e in self.extra.items()}

@@ -124,8 +124,11 @@ def test_nothing_imports_the_cli():
     ("optdesign.indices", ()),
     # the worst case of a local constraint over the continuous W: a mechanism's matrices and indices over W
     ("optdesign.worstcase", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
-    # config validates against the mechanisms' declarations, the workspace spec and the index kinds
-    ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # what a user sees of a config's quantities: a plain table (from the mechanisms' unit declarations)
+    ("optdesign.units", ("optdesign.mechanisms",)),
+    # config validates against the mechanisms' declarations, the workspace spec and the index kinds, and
+    # makes its display table (units: the design-variable table lives there, as the workspace spec in workspace)
+    ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices", "optdesign.units")),
     # derivatives of a local index from its matrices (plain numpy)
     ("optdesign.local_derivatives", ()),
     # statistics over W of a population's local indices (compiled path or numpy), no config
@@ -134,21 +137,22 @@ def test_nothing_imports_the_cli():
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature",
                             "optdesign.indices", "optdesign.worstcase", "optdesign.statistics")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
-    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
+    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.mechanisms", "optdesign.workspace",
                              "optdesign.indices", "optdesign.worstcase", "optdesign.local_derivatives")),
-    # units of what a user sees: from the config and the mechanism's declarations, through evaluate
-    ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
     # certificates: a design's mechanism (its enclosure) over the workspace's region
     ("optdesign.certify", ("optdesign.mechanisms", "optdesign.workspace")),
-    # the optimizer knows design vectors and objective values; the run folder is where it writes
-    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
+    # the optimizer knows design vectors and objective values (handed plain pieces, no config); the run
+    # folder is where it writes
+    ("optdesign.optimize", ("optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
                             "optdesign.certify", "optdesign.runs", "optdesign.units")),
     ("optdesign.runs", ()),
     # the reports read a run folder's plain data (and evaluate designs for the atlases and the pictures)
     ("optdesign.report", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
                           "optdesign.units")),
-    # a run with its reports: the optimizer's pipeline with the report's writers handed down
-    ("optdesign.runner", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runs")),
+    # a run with its reports: where the config stops; the optimizer's pipeline is handed its plain pieces
+    # (the evaluator, the units ...) and the report's writers
+    ("optdesign.runner", ("optdesign.config", "optdesign.evaluate", "optdesign.optimize", "optdesign.report",
+                          "optdesign.runs", "optdesign.units")),
     # many runs through the runner, their rows through the report's batch summary
     ("optdesign.batch", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runner",
                          "optdesign.runs")),

@@ -106,7 +106,8 @@ def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -
         full = np.full(inside.shape, np.nan)
         full[inside] = np.where(good, v, np.nan)
         values[k] = full
-    disp = [pose_display(cfg, a) for a in plotted]
+    units = cfg.units()
+    disp = [pose_display(units, a) for a in plotted]
     coords = [g * f for g, (_, f) in zip(grids, disp)]
     if ws.type == "cylinder":
         t = np.linspace(0, 2 * np.pi, 181)
@@ -114,11 +115,11 @@ def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -
         outline = ((ws.center[0] + ws.radius * np.cos(t)) * fa, (ws.center[1] + ws.radius * np.sin(t)) * fb)
     words, held = [], []
     for a, v, why in cut:
-        u, f = pose_display(cfg, a)
+        u, f = pose_display(units, a)
         words.append(f"{a} = {_fmt(v * f)} {u} ({why})")
     for a in names:
         if a not in plotted and not any(c[0] == a for c in cut):
-            u, f = pose_display(cfg, a)
+            u, f = pose_display(units, a)
             held.append(f"{a} = {_fmt(fixed[a] * f)} {u}")
     return AtlasMap(axes=list(plotted), units=[d[0] for d in disp], coords=coords, values=values, outline=outline,
                     shape=shape, cut=", ".join(words), held=", ".join(held), points=int(inside.sum()),
@@ -142,8 +143,9 @@ def check_atlas_size(cfg: Config, resolution: int | None) -> int:
 def _csv(cfg: Config, amap: AtlasMap | None, X: np.ndarray, reach: np.ndarray, local: dict) -> str:
     """local_indices.csv: the poses (workspace units), reachable (0/1), the local indices (SI)."""
     names = mechanism_class(cfg).pose_names
-    disp = [pose_display(cfg, a) for a in names]
-    head = [label(a, u) for a, (u, _) in zip(names, disp)] + ["reachable"] + [index_label(cfg, k) for k in cfg.indices]
+    units = cfg.units()
+    disp = [pose_display(units, a) for a in names]
+    head = [label(a, u) for a, (u, _) in zip(names, disp)] + ["reachable"] + [index_label(units, k) for k in cfg.indices]
     lines = [",".join(head)]
     for j in range(len(X)):
         row = [f"{X[j, i] * f:.9g}" for i, (_, f) in enumerate(disp)] + [str(int(reach[j]))]
@@ -185,5 +187,5 @@ def write_atlas(cfg: Config, design: str, out_dir: str | os.PathLike, resolution
         from .atlas_plot import atlas_png
 
         for k in cfg.indices:
-            atomic_write_bytes(out / f"{k}.png", atlas_png(cfg, amap, k, f"the {design} design"))
+            atomic_write_bytes(out / f"{k}.png", atlas_png(cfg.units(), cfg.name, amap, k, f"the {design} design"))
     return out

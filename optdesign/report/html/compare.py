@@ -106,13 +106,13 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
     if not fronts:
         return None, "No run has a Pareto front."
     common = [o for o in fronts[0][2].objectives if all(o in f.objectives for _, _, f in fronts)]
-    units = {o: {objective_unit(r.cfg, o)[0] for _, r, _ in fronts} for o in common}
+    units = {o: {objective_unit(r.units, o)[0] for _, r, _ in fronts} for o in common}
     common = [o for o in common if len(units[o]) == 1]
     if len(common) < 2:
         return None, "The runs' fronts share fewer than two objectives (with the same unit): nothing to overlay."
     fig = go.Figure()
     r0 = fronts[0][1]
-    dims_label = {o: esc(index_label(r0.cfg, o)) for o in common}
+    dims_label = {o: esc(index_label(r0.units, o)) for o in common}
     dims = [dims_label[o] for o in common]
     for j, (lab, r, f) in enumerate(fronts):
         vals = _front_values(r, f)
@@ -180,12 +180,12 @@ def build_compare(runs: list[RunData]) -> str:
     page.html(_runs_table(runs, labels))
     page.section("optima", "Optima")
     dvs = _union([list(r.cfg.design_variables) for r in runs])
-    page.html(_side_by_side(dvs, runs, labels, lambda r, k: variable_unit(r.cfg, k) if k in r.cfg.design_variables else None,
+    page.html(_side_by_side(dvs, runs, labels, lambda r, k: variable_unit(r.units, k) if k in r.cfg.design_variables else None,
                             _optimum))
     page.html("<p class=note>Design parameters of each run's weighted-sum optimum, in its config's units.</p>")
     page.section("indices", "Global indices")
     idx = _union([list(r.cfg.indices) for r in runs])
-    page.html(_side_by_side(idx, runs, labels, lambda r, k: index_unit(r.cfg, k) if k in r.cfg.indices else None, _index,
+    page.html(_side_by_side(idx, runs, labels, lambda r, k: index_unit(r.units, k) if k in r.cfg.indices else None, _index,
                             extra_col=("sense", _senses)))
     page.html("<p class=note>Means over each run's own workspace at its optimum (SI; [–]: dimensionless). Runs with "
               "different workspaces or index conventions are not on one scale.</p>")

@@ -67,14 +67,14 @@ def objective_sense(run: RunData, name: str) -> str:
 
 
 def _obj_label(run: RunData, name: str, short: bool = False) -> str:
-    s = index_label(run.cfg, name)
+    s = index_label(run.units, name)
     if not short:
         s += " ↑ max" if objective_sense(run, name) == "max" else " ↓ min"
     return esc(s)
 
 
 def _var_label(run: RunData, k: str) -> str:
-    return esc(label(k, variable_unit(run.cfg, k)))
+    return esc(label(k, variable_unit(run.units, k)))
 
 
 def hover_lines(run: RunData, designs: dict, values: dict, i: int, title: str) -> str:
@@ -84,9 +84,9 @@ def hover_lines(run: RunData, designs: dict, values: dict, i: int, title: str) -
     out = [f"<b>{esc(title)}</b>"]
     for k, dv in cfg.design_variables.items():
         if dv.free and k in designs:
-            out.append(f"{esc(k)} = {fmt(dv.display(designs[k][i]))} {esc(variable_unit(cfg, k))}")
+            out.append(f"{esc(k)} = {fmt(dv.display(designs[k][i]))} {esc(variable_unit(run.units, k))}")
     for k, v in values.items():
-        u, _ = objective_unit(cfg, k)
+        u, _ = objective_unit(run.units, k)
         out.append(f"{esc(k)} = {fmt(v[i])}" + (f" {esc(u)}" if u and u != DIMENSIONLESS else ""))
     return "<br>".join(out)
 
@@ -116,7 +116,7 @@ def design_points(run: RunData, objectives: list[str]) -> list[tuple[str, dict, 
                 ov[o] = vals.get(o, math.nan)
             else:
                 try:
-                    ov[o] = _extra_value(run, o, params) * objective_unit(run.cfg, o)[1]
+                    ov[o] = _extra_value(run, o, params) * objective_unit(run.units, o)[1]
                 except (KeyError, ValueError, TypeError):
                     ov[o] = math.nan
         out.append((name, params, ov))
@@ -127,7 +127,7 @@ def _front_values(run: RunData, front: Front) -> dict[str, np.ndarray]:
     """Objectives (own sense, display units) then the other global indices of a front."""
     vals = {}
     for o, v in front.objectives.items():
-        vals[o] = v * objective_unit(run.cfg, o)[1]
+        vals[o] = v * objective_unit(run.units, o)[1]
     for k, v in front.indices.items():
         vals.setdefault(k, v)
     return vals
@@ -172,7 +172,7 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                 # the history shows the population mean in the index's own sense (mean_<k>);
                 # a folder of the previous format has the minimized objective's mean
                 mean = _col(rows, f"mean_{k}") if f"mean_{k}" in rows[0] else flip * _col(rows, "mean_objective")
-                ylab = index_label(cfg, k)
+                ylab = index_label(run.units, k)
             else:
                 best, mean = _col(rows, "best_objective"), _col(rows, "mean_objective")
                 ylab = "f [–]"
@@ -214,10 +214,10 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
             else:
                 k = t.lstrip("-")
                 if f"best_{t}" in rows[0]:   # the previous format: the minimized objective, SI
-                    y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(cfg, k)[1]
+                    y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(run.units, k)[1]
                 else:                        # own sense, shown units
                     y = _col(rows, f"best_{k}")
-                ylab = index_label(cfg, k)
+                ylab = index_label(run.units, k)
             fig.add_trace(go.Scatter(x=g, y=y, mode="lines", showlegend=False, line=dict(color=COLORS[i % len(COLORS)]),
                                      hovertemplate="generation %{x}<br>%{y:.5g}<extra></extra>"), row=row, col=col)
             fig.update_yaxes(title_text=esc(ylab), row=row, col=col)
@@ -342,7 +342,7 @@ def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted
     figs = []
     where = "; ".join(w for w in (amap.held, (f"slice through the centre: {amap.cut}" if amap.cut else "")) if w)
     for k, Z in amap.values.items():
-        ul = index_label(cfg, k)
+        ul = index_label(run.units, k)
         sense = cfg.indices[k].sense
         title = f"{esc(k)} ({'max' if sense == 'max' else 'min'}) of {esc(design_name)}"
         sub = esc(where) if where else ""

@@ -30,9 +30,9 @@ def _header(run: RunData) -> str:
             f"wall time {esc(m.get('wall_time_s', '?'))} s"]
     if m.get("end_time"):
         bits.append(f"finished {esc(m['end_time'])}")
-    opt = ", ".join(f"{esc(k)} = {fmt(dv.display(r['optimum'][k]), 4)} {esc(variable_unit(cfg, k))}"
+    opt = ", ".join(f"{esc(k)} = {fmt(dv.display(r['optimum'][k]), 4)} {esc(variable_unit(run.units, k))}"
                     for k, dv in cfg.design_variables.items() if dv.free)
-    idx = ", ".join(f"{esc(k)} = {fmt(v, 4)}" + (f" {esc(u)}" if (u := index_unit(cfg, k)) and u != "–" else "")
+    idx = ", ".join(f"{esc(k)} = {fmt(v, 4)}" + (f" {esc(u)}" if (u := index_unit(run.units, k)) and u != "–" else "")
                     for k, v in r["global_indices"].items() if k in cfg.indices)
     return ("<header>"
             f"<h1>{esc(cfg.name)}: optimization report</h1>"
@@ -72,7 +72,7 @@ def _normalization_text(run: RunData) -> str:
                          f"{fmt(r['objective_paper_literal'], 4)}")
         pl = r.get("paper_literal_optimum")
         if isinstance(pl, dict) and isinstance(pl.get("design"), dict):
-            parts = ", ".join(f"{esc(k)} = {fmt(dv.display(pl['design'][k]), 4)} {esc(variable_unit(cfg, k))}"
+            parts = ", ".join(f"{esc(k)} = {fmt(dv.display(pl['design'][k]), 4)} {esc(variable_unit(run.units, k))}"
                               for k, dv in cfg.design_variables.items() if dv.free and k in pl["design"])
             extra.append(f"minimizing the literal eq. 38 instead gives {parts} (objective {fmt(pl.get('objective'), 4)})")
         if extra:

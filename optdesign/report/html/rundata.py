@@ -6,13 +6,14 @@ import csv
 import json
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from ...config import Config, parse_config
 from ...runs import FORMAT_VERSION, MAX_CONFIG, MAX_JSON, RunFolder, RunFolderError
-from ...units import strip_unit
+from ...units import Units, strip_unit
 
 __all__ = ["RunData", "Front", "load_run", "MAX_FILE_BYTES"]
 
@@ -45,6 +46,11 @@ class RunData:
     stages: dict[str, dict] = field(default_factory=dict)     # name -> result.json
     history: dict[str, list[dict]] = field(default_factory=dict)  # name -> rows of floats
     fronts: dict[str, Front] = field(default_factory=dict)
+
+    @cached_property
+    def units(self) -> Units:
+        """What a reader sees of the run's quantities (the config's units)."""
+        return self.cfg.units()
 
 
 def _text(data: bytes, p: Path) -> str:

@@ -45,7 +45,7 @@ def optimum_table(run: RunData) -> str:
     headers = ["parameter", "unit", "<b>optimum</b>"] + [f"{esc(n)} (config)" for n in names] + ["bounds"]
     rows = []
     for k, dv in cfg.design_variables.items():
-        row = [f"<code>{esc(k)}</code>", esc(variable_unit(cfg, k)), f"<b>{fmt(dv.display(r['optimum'][k]))}</b>"]
+        row = [f"<code>{esc(k)}</code>", esc(variable_unit(run.units, k)), f"<b>{fmt(dv.display(r['optimum'][k]))}</b>"]
         for n in names:
             v = r["designs"][n]["parameters"].get(k)
             row.append(fmt(dv.display(v)) if isinstance(v, (int, float)) else "-")
@@ -76,7 +76,7 @@ def index_table(run: RunData) -> str:
     for k, spec in cfg.indices.items():
         o = r["global_indices"][k]
         s = summ.get(k, {}) if isinstance(summ.get(k), dict) else {}
-        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(cfg, k)), "max" if spec.sense == "max" else "min",
+        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(run.units, k)), "max" if spec.sense == "max" else "min",
                f"<b>{fmt(o)}</b>"] + ([fmt(err.get(k), 2)] if err else []) + [fmt(s.get("min")), fmt(s.get("max"))]
         row += [fmt(_mean(r["designs"][n], k)) for n in names]
         if base:
@@ -103,7 +103,7 @@ def reference_table(run: RunData) -> str:
         headers += [f"{esc(n)} (ours)", f"{esc(n)} (reference)", "rel. diff"]
     rows = []
     for k in cfg.indices:
-        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(cfg, k))]
+        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(run.units, k))]
         for n in names:
             v, p = _mean(r["designs"][n], k), ref[n].get(k)
             row += [fmt(v), fmt(p), f"{100 * (v - p) / p:+.2f}%" if isinstance(v, (int, float)) and p else "-"]
@@ -117,7 +117,7 @@ def _design_text(run: RunData, design) -> str:
     parts = []
     for k, dv in run.cfg.design_variables.items():
         if dv.free and isinstance(design.get(k), (int, float)):
-            parts.append(f"{esc(k)}&nbsp;=&nbsp;{fmt(dv.display(design[k]), 4)}&nbsp;{esc(variable_unit(run.cfg, k))}")
+            parts.append(f"{esc(k)}&nbsp;=&nbsp;{fmt(dv.display(design[k]), 4)}&nbsp;{esc(variable_unit(run.units, k))}")
     return ", ".join(parts) or "-"
 
 
@@ -130,7 +130,7 @@ def normalization_table(run: RunData) -> str:
     for k, v in norm.items():
         if not isinstance(v, dict):
             continue
-        unit = index_unit(run.cfg, k) if k in run.cfg.indices else None
+        unit = index_unit(run.units, k) if k in run.cfg.indices else None
         # where each extreme was found: results.json records it (a later stage may
         # have moved it); older runs have only the single-objective stages
         lo_d = v.get("min_design") or run.stages.get(f"single_{k}_min", {}).get("design")

@@ -155,7 +155,7 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
     names = mechanism_class(run.cfg).pose_names
     labels = []
     for (lab, x), k in zip(poses, range(len(poses))):
-        where = ", ".join(f"{a} = {x[i] * pose_display(run.cfg, a)[1]:.4g} {pose_display(run.cfg, a)[0]}"
+        where = ", ".join(f"{a} = {x[i] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}"
                           for i, a in enumerate(names))
         ok = np.all(np.isfinite(dr["platform"][k]))
         labels.append(f"{lab}: {where}" + ("" if ok else " (not reachable)"))
@@ -236,29 +236,29 @@ def _surface_figure(run: RunData, params: dict, grid) -> go.Figure:
     names = list(mechanism_class(cfg).pose_names)
     free, g, X, inside = grid
     vals = _local_values(run, params, X[inside])
-    disp = [pose_display(cfg, names[i]) for i in free]
+    disp = [pose_display(run.units, names[i]) for i in free]
     fig = go.Figure()
     keys = list(cfg.indices)
     for j, k in enumerate(keys):
         v = np.full(len(X), np.nan)
         v[inside] = vals[k]
         Z = v.reshape(len(g[1]), len(g[0]))
-        lab = esc(index_label(cfg, k))
+        lab = esc(index_label(run.units, k))
         fig.add_trace(go.Surface(x=g[0] * disp[0][1], y=g[1] * disp[1][1], z=Z, surfacecolor=Z, colorscale="Viridis",
                                  visible=j == 0, name=esc(k), colorbar=dict(title=dict(text=lab, side="right")),
                                  hovertemplate=f"{esc(names[free[0]])} = %{{x:.4g}}, {esc(names[free[1]])} = %{{y:.4g}}<br>"
                                                f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
-    fixed = ", ".join(f"{a} = {X[0, i] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}"
+    fixed = ", ".join(f"{a} = {X[0, i] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}"
                       for i, a in enumerate(names) if i not in free)
     buttons = [dict(label=esc(k), method="update",
                     args=[{"visible": [i == j for i in range(len(keys))]},
-                          {"scene.zaxis.title.text": esc(index_label(cfg, k))}])
+                          {"scene.zaxis.title.text": esc(index_label(run.units, k))}])
                for j, k in enumerate(keys)]
     fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=60, b=10),
                       title=dict(text=esc("The workspace W as a surface: height and colour a local index of the "
                                           "weighted-sum optimum" + (f" ({fixed})" if fixed else "")), x=0.01, y=0.98),
                       scene=dict(xaxis_title=f"{names[free[0]]} [{disp[0][0]}]", yaxis_title=f"{names[free[1]]} [{disp[1][0]}]",
-                                 zaxis_title=esc(index_label(cfg, keys[0])), aspectmode="manual",
+                                 zaxis_title=esc(index_label(run.units, keys[0])), aspectmode="manual",
                                  aspectratio=dict(x=1, y=1, z=0.6)),
                       updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
     return fig
@@ -277,10 +277,10 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     if len(X) < 2:
         return None
     held = [a for i, a in enumerate(names) if i >= 3 and np.ptp(X[:, i]) == 0 and np.ptp(_sample(run, 2)[:, i]) > 0]
-    parts = [f"{a} = {X[0, names.index(a)] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}" for a in held]
+    parts = [f"{a} = {X[0, names.index(a)] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}" for a in held]
     cut = "a 3-D slice of W: " + ", ".join(parts) if held else ""
     vals = _local_values(run, params, X)
-    disp = [pose_display(cfg, a) for a in names[:3]]
+    disp = [pose_display(run.units, a) for a in names[:3]]
     C = [X[:, i] * disp[i][1] for i in range(min(3, len(names)))]
     while len(C) < 3:
         C.append(np.zeros(len(X)))
@@ -292,7 +292,7 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
         good = np.isfinite(v)
         fig.add_trace(go.Scatter3d(x=C[0][good], y=C[1][good], z=C[2][good], mode="markers", visible=j == 0, name=esc(k),
                                    marker=dict(size=3 if len(X) > 2000 else 4, color=v[good], colorscale="Viridis",
-                                               colorbar=dict(title=dict(text=esc(index_label(cfg, k)), side="right"))),
+                                               colorbar=dict(title=dict(text=esc(index_label(run.units, k)), side="right"))),
                                    hovertemplate=f"{esc(k)} = %{{marker.color:.5g}}<extra></extra>"))
     axes = [f"{names[i]} [{disp[i][0]}]" if i < len(names) else "(plane)" for i in range(3)]
     buttons = [dict(label=esc(k), method="update", args=[{"visible": [i == j for i in range(len(keys))]}])
@@ -309,7 +309,7 @@ def _snippet(run: RunData, name: str, d: dict) -> str:
     cfg = run.cfg
     lines = [f"{name}:"]
     for k, dv in cfg.design_variables.items():
-        u = variable_unit(cfg, k)
+        u = variable_unit(run.units, k)
         lines.append(f"  {k}: {dv.display(float(d.get(k, dv.value))):.12g}   # {u}")
     return "\n".join(lines) + "\n"
 
@@ -319,7 +319,7 @@ def copy_table(run: RunData, front: Front, max_rows: int = 200) -> str:
     its ``designs:`` snippet (every string escaped, the snippet in an attribute)."""
     cfg = run.cfg
     free = [k for k, dv in cfg.design_variables.items() if dv.free and k in front.designs]
-    head = "".join(f"<th class=num>{esc(k)} [{esc(variable_unit(cfg, k))}]</th>" for k in free)
+    head = "".join(f"<th class=num>{esc(k)} [{esc(variable_unit(run.units, k))}]</th>" for k in free)
     rows = []
     for i in range(min(front.size, max_rows)):
         d = {k: float(a[i]) for k, a in front.designs.items()}
