@@ -62,7 +62,7 @@ def final_results(subject, weights: dict, seed: int, stages: dict, evaluator, po
     ext0, _ = fold_extremes(stages, upto_singles=True)
     lo0, hi0 = bounds_of(ext0, weighted)
     ext, changes = fold_extremes(stages)
-    ev_named = evaluator.evaluation([dict(named[n]) for n in names]) if names else None
+    ev_named = evaluator.model.evaluate([dict(named[n]) for n in names], ws) if names else None
     for k, b, old, new in merge_observed(ext, _named_observed(evaluator, named, names, ev_named), "designs"):
         changes.append({"index": k, "bound": b, "from": old, "to": new, "stage": "designs"})
     lo, hi = bounds_of(ext, weighted)
@@ -84,7 +84,7 @@ def final_results(subject, weights: dict, seed: int, stages: dict, evaluator, po
         for k, b, old, new in merge_observed(ext, obs, "final"):
             changes.append({"index": k, "bound": b, "from": old, "to": new, "stage": "final"})
         lo, hi = bounds_of(ext, weighted)
-    ev = evaluator.evaluation([opt_design] + [dict(named[n]) for n in names])
+    ev = evaluator.model.evaluate([opt_design] + [dict(named[n]) for n in names], ws)
 
     def summ(i):
         return {k: {s: float(ev.summary[k][s][i]) for s in ("mean", "min", "max", "std")} for k in indices}

@@ -39,7 +39,7 @@ def integral_records(evaluator: Evaluator, designs, tolerance: float, max_points
     ws = adaptive_workspace(evaluator.workspace, tolerance, max_points)
     out = []
     for d in designs:
-        ev = evaluator.evaluation([d], ws)
+        ev = evaluator.model.evaluate([d], ws)
         rec = {}
         for k in evaluator.index_names:
             st = str(ev.status[k][0])
@@ -79,7 +79,7 @@ def integrals_of_reported(checks, evaluator: Evaluator, units: Units, results: d
         return None
     designs = _designs(results, evaluator.defaults)
     full = [{**evaluator.defaults, **d} for d in designs.values()]
-    ev = evaluator.evaluation(full)
+    ev = evaluator.model.evaluate(full, ws)
     recs = integral_records(evaluator, full, tol, cap)
     out = {}
     for j, (key, d) in enumerate(designs.items()):
