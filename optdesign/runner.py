@@ -92,8 +92,9 @@ def run_in_folder(cfg: Config, folder: RunFolder, seed: int, progress: Progress 
     :func:`run_spec` with the reports of :func:`run_outputs` (``reports=False``:
     the optimizer's files only).  ``jobs``, ``stop``, ``stop_after``: see
     :func:`optdesign.optimize.pipeline.run_pipeline`."""
-    return run_pipeline(run_spec(cfg), folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs,
-                        stop=stop, outputs=run_outputs(cfg, reference_note) if reports else NO_OUTPUTS)
+    spec, outputs = run_spec(cfg), run_outputs(cfg, reference_note) if reports else NO_OUTPUTS
+    return run_pipeline(spec, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs, stop=stop,
+                        outputs=outputs)
 
 
 def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "runs", name: str | None = None,
@@ -105,7 +106,7 @@ def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "ru
     ``reference_note``: see :func:`run_outputs`).  The run's pieces are made
     before the folder: a config that cannot run leaves nothing on disk."""
     seed = cfg.optimizer.seed if seed is None else int(seed)
-    spec = run_spec(cfg)
+    spec, outputs = run_spec(cfg), run_outputs(cfg, reference_note)
     text = config_text(cfg)
     key = run_key(text, seed, {"pareto": pareto})
     folder = RunFolder.create(out, name or cfg.name, text, seed, key, exact=exact_name, pareto=pareto)
@@ -114,7 +115,7 @@ def start_run(cfg: Config, seed: int | None = None, out: str | os.PathLike = "ru
             stop.folder = folder.path
         folder.update_manifest(config_source=cfg.source, config_name=cfg.name)
         return run_pipeline(spec, folder, seed, progress, pareto=pareto, stop_after=stop_after, jobs=jobs, stop=stop,
-                            outputs=run_outputs(cfg, reference_note))
+                            outputs=outputs)
 
 
 def resume_run(path: str | os.PathLike, progress: Progress | None = None, stop_after: int | None = None,
