@@ -100,7 +100,7 @@ def test_weighted_optimum_against_the_front(tmp_path):
 
     cfg = load_config(DATA / "p4s_tradeoff_small.yaml")
     front = [{strip_unit(k): float(v) for k, v in r.items()} for r in front]
-    F = np.array([[(-1 if t.startswith("-") else 1) * r[t.lstrip("-")] / objective_unit(cfg, t.lstrip("-"))[1]
+    F = np.array([[(-1 if t.startswith("-") else 1) * r[t.lstrip("-")] / objective_unit(cfg.units(), t.lstrip("-"))[1]
                    for t in terms] for r in front])
     Fn = (F - lo) / (hi - lo)
     p = np.array(pl["normalized_objectives"])
