@@ -60,7 +60,7 @@ def main() -> None:
     named = [cfg.design("before"), cfg.design("after")]
     ref = evaluate(cfg, named, sample(dataclasses.replace(cfg.workspace, sampling="gauss", step=None,
                                                           points_per_axis=401), names), errors=False)
-    rules = [("grid 11x11", grid)] + [(f"adaptive {t:g}", adaptive_workspace(cfg, t, 200_000)) for t in (1e-3, 1e-4, 1e-6)]
+    rules = [("grid 11x11", grid)] + [(f"adaptive {t:g}", adaptive_workspace(grid, t, 200_000)) for t in (1e-3, 1e-4, 1e-6)]
     print(f"{'rule':<15} {'designs':<10} {'nodes':>7} {'seconds':>9} {'x grid nodes':>12} {'x grid s':>9} "
           f"{'max rel dist':>12} {'max rel err':>11} status")
     base_cost = {}

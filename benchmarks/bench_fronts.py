@@ -55,8 +55,8 @@ def main(argv=None) -> int:
     from pymoo.indicators.hv import HV
 
     from optdesign.config import load_config
-    from optdesign.optimize.pipeline import run_pipeline
     from optdesign.optimize.refine import non_dominated
+    from optdesign.runner import run_in_folder
     from optdesign.runs import RunFolder
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -74,7 +74,7 @@ def main(argv=None) -> int:
         if not (folder / "results.json").exists():
             text = Path(a.config).read_text()
             f = RunFolder.create(out, folder.name, text, s, f"k{s}", exact=True)
-            run_pipeline(cfg, f, s)
+            run_in_folder(cfg, f, s, reports=False)
         res = json.loads((folder / "results.json").read_text())
         for alg, p in res.get("pareto", {}).items():
             st = json.loads((folder / "stages" / alg / "result.json").read_text())

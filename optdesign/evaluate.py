@@ -13,6 +13,7 @@ means over W), vectorized over a population.
 * :class:`Evaluator` — what the optimizer calls: design vectors (D, n_var) ->
   index values, extra objectives and constraint quantities, all from one
   :func:`evaluate` pass per population; after construction it holds no config;
+* :class:`DesignModel` — :func:`build` and :func:`evaluate` from plain pieces, no config;
 * :func:`build` — one mechanism of a config, for a named design or a mapping.
 """
 from __future__ import annotations
@@ -29,9 +30,9 @@ from .statistics import adaptive_means, mean_errors, statistics
 from .workspace import MAX_POINTS, Workspace, WorkspaceTooLarge, sample
 from . import worstcase
 
-__all__ = ["Evaluation", "Evaluator", "evaluate", "evaluate_named", "workspace_of", "build", "mechanism_class",
-           "index_requests", "check_size", "global_indices_error", "error_method", "unreachable_design",
-           "unreachable_message"]
+__all__ = ["Evaluation", "Evaluator", "DesignModel", "evaluate", "evaluate_named", "workspace_of", "build",
+           "mechanism_class", "index_requests", "check_size", "global_indices_error", "error_method",
+           "unreachable_design", "unreachable_message"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -100,7 +101,37 @@ class Evaluation:
     status: dict[str, np.ndarray] | None = None
 
 
-def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
+@dataclass(frozen=True)
+class DesignModel:
+    """How designs are built and evaluated, as plain pieces: the mechanism class, its fixed
+    parameters, every design variable at its value (``defaults``, SI) and the index requests."""
+
+    mechanism: type[Mechanism]
+    fixed: Mapping[str, float]
+    defaults: Mapping[str, float]
+    requests: tuple[IndexRequest, ...]
+
+    @classmethod
+    def from_config(cls, config: Config, index_names=None) -> "DesignModel":
+        return cls(mechanism_class(config), dict(config.parameters), {k: dv.value for k, dv in
+                   config.design_variables.items()}, tuple(index_requests(config, index_names)))
+
+    def build(self, design: Mapping[str, float]) -> Mechanism:
+        return self.mechanism(**{**self.fixed, **design})
+
+    def evaluate(self, designs, ws: Workspace, keep_local: bool = False, errors: bool = True) -> Evaluation:
+        """:func:`evaluate` over ``ws`` (WorkspaceTooLarge past the limit of one call)."""
+        full, requests = _stack_designs(self.defaults, designs), list(self.requests)
+        check_size(ws.n, len(next(iter(full.values()))))
+        mech, summary, reach, local = _evaluate(self.mechanism, self.fixed, full, ws, requests, keep_local)
+        if ws.spec.sampling == "adaptive":
+            frac, err, status = adaptive_means(mech, ws, requests, reach.shape[0], summary)
+            return Evaluation(summary, reach, frac, local, ws, err if errors else None, error_method(ws), status)
+        err = mean_errors(mech, ws, requests, reach.shape[0], summary) if errors else None
+        return Evaluation(summary, reach, ws.fraction(reach), local, ws, err, error_method(ws))
+
+
+def _stack_designs(defaults: Mapping[str, float], designs) -> dict[str, np.ndarray]:
     if isinstance(designs, Mapping):
         arr = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in designs.items()}
     else:  # a list of mappings
@@ -110,8 +141,8 @@ def _stack_designs(config: Config, designs) -> dict[str, np.ndarray]:
         arr = {k: np.array([d[k] for d in designs], dtype=float) for k in keys}
     D = max(v.shape[0] for v in arr.values())
     full = {}
-    for k, dv in config.design_variables.items():
-        v = arr.get(k, np.array([dv.value]))
+    for k, value in defaults.items():
+        v = arr.get(k, np.array([value]))
         full[k] = np.broadcast_to(v, (D,)).astype(float)
     return full
 
@@ -139,18 +170,10 @@ def evaluate(config: Config, designs, workspace: Workspace | None = None, keep_l
     ``errors`` (default) each mean also gets its error estimate (an extra
     pass over the points of the workspace's error rule)."""
     ws = workspace if workspace is not None else workspace_of(config)
-    full = _stack_designs(config, designs)
     try:
-        check_size(ws.n, len(next(iter(full.values()))))
+        return DesignModel.from_config(config, index_names).evaluate(designs, ws, keep_local, errors)
     except WorkspaceTooLarge as exc:
         raise ConfigError(config.source, "workspace", str(exc)) from None
-    requests = index_requests(config, index_names)
-    mech, summary, reach, local = _evaluate(mechanism_class(config), config.parameters, full, ws, requests, keep_local)
-    if ws.spec.sampling == "adaptive":
-        frac, err, status = adaptive_means(mech, ws, requests, reach.shape[0], summary)
-        return Evaluation(summary, reach, frac, local, ws, err if errors else None, error_method(ws), status)
-    err = mean_errors(mech, ws, requests, reach.shape[0], summary) if errors else None
-    return Evaluation(summary, reach, ws.fraction(reach), local, ws, err, error_method(ws))
 
 
 def error_method(workspace: Workspace) -> str:
@@ -319,6 +342,11 @@ class Evaluator:
 
     def vector(self, design: Mapping[str, float]) -> np.ndarray:
         return np.array([design[k] for k in self.free], dtype=float)
+
+    @property
+    def model(self) -> DesignModel:
+        """Its mechanism and indices without the box and the constraints (full evaluations of designs)."""
+        return DesignModel(self.mechanism, self.fixed, self.defaults, tuple(self.requests))
 
     def extra_values(self, designs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         return {k: np.asarray(e.func(designs), dtype=float) for k, e in self.extra.items()}

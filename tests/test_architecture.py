@@ -19,6 +19,9 @@ optimize -> runner -> commands (CLI), with the reports beside the run:
 A mechanism knows geometry and physics, not the optimizer; an index knows
 matrices, not YAML; the optimizer knows design vectors and objective values,
 not mechanisms, reports or studies; nothing imports the CLI.
+
+The config stops at the command layer (the commands and the runner): the
+layers below are handed the plain pieces they read (CONFIG_READERS below).
 """
 from __future__ import annotations
 
@@ -124,8 +127,11 @@ def test_nothing_imports_the_cli():
     ("optdesign.indices", ()),
     # the worst case of a local constraint over the continuous W: a mechanism's matrices and indices over W
     ("optdesign.worstcase", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
-    # config validates against the mechanisms' declarations, the workspace spec and the index kinds
-    ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices")),
+    # what a user sees of a config's quantities: a plain table (from the mechanisms' unit declarations)
+    ("optdesign.units", ("optdesign.mechanisms",)),
+    # config validates against the mechanisms' declarations, the workspace spec and the index kinds, and
+    # makes its display table (units: the design-variable table lives there, as the workspace spec in workspace)
+    ("optdesign.config", ("optdesign.mechanisms", "optdesign.workspace", "optdesign.indices", "optdesign.units")),
     # derivatives of a local index from its matrices (plain numpy)
     ("optdesign.local_derivatives", ()),
     # statistics over W of a population's local indices (compiled path or numpy), no config
@@ -134,21 +140,22 @@ def test_nothing_imports_the_cli():
     ("optdesign.evaluate", ("optdesign.config", "optdesign.mechanisms", "optdesign.workspace", "optdesign.cubature",
                             "optdesign.indices", "optdesign.worstcase", "optdesign.statistics")),
     # derivatives of the evaluation (the evaluate layer: the mechanisms' CasADi models through the registry)
-    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.config", "optdesign.mechanisms", "optdesign.workspace",
+    ("optdesign.gradients", ("optdesign.evaluate", "optdesign.mechanisms", "optdesign.workspace",
                              "optdesign.indices", "optdesign.worstcase", "optdesign.local_derivatives")),
-    # units of what a user sees: from the config and the mechanism's declarations, through evaluate
-    ("optdesign.units", ("optdesign.config", "optdesign.evaluate")),
     # certificates: a design's mechanism (its enclosure) over the workspace's region
     ("optdesign.certify", ("optdesign.mechanisms", "optdesign.workspace")),
-    # the optimizer knows design vectors and objective values; the run folder is where it writes
-    ("optdesign.optimize", ("optdesign.config", "optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
+    # the optimizer knows design vectors and objective values (handed plain pieces, no config); the run
+    # folder is where it writes
+    ("optdesign.optimize", ("optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
                             "optdesign.certify", "optdesign.runs", "optdesign.units")),
     ("optdesign.runs", ()),
     # the reports read a run folder's plain data (and evaluate designs for the atlases and the pictures)
     ("optdesign.report", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
                           "optdesign.units")),
-    # a run with its reports: the optimizer's pipeline with the report's writers handed down
-    ("optdesign.runner", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runs")),
+    # a run with its reports: where the config stops; the optimizer's pipeline is handed its plain pieces
+    # (the evaluator, the units ...) and the report's writers
+    ("optdesign.runner", ("optdesign.config", "optdesign.evaluate", "optdesign.optimize", "optdesign.report",
+                          "optdesign.runs", "optdesign.units")),
     # many runs through the runner, their rows through the report's batch summary
     ("optdesign.batch", ("optdesign.config", "optdesign.optimize", "optdesign.report", "optdesign.runner",
                          "optdesign.runs")),
@@ -166,6 +173,65 @@ def test_no_config_below_evaluate():
         for name, path in MODULES:
             if _under(name, layer):
                 assert not any(_under(i, "optdesign.config") for i in _imports(path)), name
+
+
+#: the modules that may read a Config (the config package's Config, its loaders): the config itself, the top
+#: (the CLI, the commands, the runner, which makes a run's plain pieces of it, batches, and the paper studies the
+#: commands name), evaluate.py's documented adapters (Evaluator.from_config, DesignModel.from_config,
+#: evaluate(config, ...), build(config, ...)) and, in the reports, the readers of a run folder's config.yaml,
+#: which turn it into plain pieces at once (report/folders.py for the commands, report/summary.py for a batch's
+#: keys and units, report/html/rundata.py for the pages)
+CONFIG_READERS = ("optdesign.config", "optdesign.cli", "optdesign.__main__", "optdesign.commands", "optdesign.runner",
+                  "optdesign.batch", "optdesign.studies", "optdesign.evaluate", "optdesign.report.folders",
+                  "optdesign.report.summary", "optdesign.report.html.rundata")
+
+
+def _config_names(path: Path) -> set[str]:
+    """How a module could hold a config without importing it: a parameter
+    named ``cfg`` or ``config``, a variable ``cfg``, an attribute ``.cfg``
+    (a variable ``config`` may be another library's, numba's)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            a = node.args
+            out.update(f"parameter {x.arg}" for x in a.posonlyargs + a.args + a.kwonlyargs + [a.vararg, a.kwarg]
+                       if x is not None and x.arg in ("cfg", "config"))
+        elif isinstance(node, ast.Name) and node.id == "cfg":
+            out.add("name cfg")
+        elif isinstance(node, ast.Attribute) and node.attr == "cfg":
+            out.add("attribute .cfg")
+    return out
+
+
+def test_the_config_stops_at_the_command_layer():
+    """Below the commands and the runner the layers are handed the plain pieces
+    they read (the Evaluator, the optimizer's and the checks' sections, the
+    Units table, a DesignModel, the workspace spec ...), never the config: no
+    module but the readers above imports optdesign.config, and none holds a
+    config under another import (a parameter or variable cfg/config, an
+    attribute .cfg)."""
+    bad = []
+    for name, path in MODULES:
+        if any(_under(name, r) for r in CONFIG_READERS):
+            continue
+        bad += [f"{name} imports {i}" for i in _imports(path) if _under(i, "optdesign.config")]
+        bad += [f"{name}: {what}" for what in sorted(_config_names(path))]
+    assert not bad, bad
+    # the checker sees a config handed along without its import
+    assert "parameter cfg" in _config_names(PKG / "commands" / "run.py")
+
+
+def test_the_evaluators_hold_no_config():
+    """evaluate.py's Evaluator and DesignModel take a config in from_config only
+    (the documented entry point); their other methods read their plain fields."""
+    tree = ast.parse((PKG / "evaluate.py").read_text())
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    for cls in ("Evaluator", "DesignModel"):
+        for fn in classes[cls].body:
+            if isinstance(fn, ast.FunctionDef) and fn.name != "from_config":
+                names = {n.id for n in ast.walk(fn) if isinstance(n, ast.Name)} | \
+                        {a.arg for a in ast.walk(fn) if isinstance(a, ast.arg)}
+                assert not names & {"config", "cfg", "Config"}, f"{cls}.{fn.name}"
 
 
 def test_optimize_does_not_import_mechanisms():

@@ -14,7 +14,8 @@ from optdesign.report.summary import summary_tables
 from optdesign.batch.tasks import plan
 from optdesign.cli import main
 from optdesign.config import parse_config
-from optdesign.optimize.pipeline import Interrupted, run_pipeline
+from optdesign.optimize.pipeline import Interrupted
+from optdesign.runner import run_in_folder
 from optdesign.runs import RunFolder
 
 from conftest import BATCH_SMALL as SMALL, SAME_FIELDS as SAME
@@ -65,7 +66,7 @@ def test_interrupted_runs_resumed_by_rerun(small_batch, tmp_path):
         folder = RunFolder.create(out, t.folder_name, t.config_text, t.seed, t.key, exact=True)
         folder.update_manifest(pareto=False, name=t.name, sweep={})
         with pytest.raises(Interrupted):
-            run_pipeline(parse_config(t.config_text), folder, t.seed, stop_after=stop)
+            run_in_folder(parse_config(t.config_text), folder, t.seed, stop_after=stop, reports=False)
         assert folder.read_manifest()["status"] == "interrupted"
         assert any(folder.path.glob("stages/*/checkpoint.npz"))
     # a process killed outright leaves its manifest at "running": resumed the same way
@@ -97,7 +98,7 @@ def test_unreadable_checkpoint_fails_that_run_with_a_clear_error(tmp_path):
     out = tmp_path / "runs"
     folder = RunFolder.create(out, t.folder_name, t.config_text, t.seed, t.key, exact=True)
     with pytest.raises(Interrupted):
-        run_pipeline(parse_config(t.config_text), folder, t.seed, stop_after=2)
+        run_in_folder(parse_config(t.config_text), folder, t.seed, stop_after=2, reports=False)
     (ckpt,) = folder.path.glob("stages/*/checkpoint.npz")
     ckpt.write_bytes(b"")                        # as a crash before the data reached the disk may leave it
     row = run_task(t, str(out))

@@ -17,7 +17,8 @@ from optdesign.report.summary import collect_folders, group_stats, row_from_fold
 from optdesign.batch.tasks import plan
 from optdesign.cli import main
 from optdesign.config import parse_config
-from optdesign.optimize.pipeline import Interrupted, run_pipeline
+from optdesign.optimize.pipeline import Interrupted
+from optdesign.runner import run_in_folder
 from optdesign.runs import RunFolder
 
 from conftest import BATCH_SMALL as SMALL
@@ -32,7 +33,7 @@ def test_summary_statistics_match_the_rows(small_batch, tmp_path):
     folder = RunFolder.create(out, t3.folder_name, t3.config_text, t3.seed, t3.key, exact=True)
     folder.update_manifest(name=t3.name)
     with pytest.raises(Interrupted):
-        run_pipeline(parse_config(t3.config_text), folder, t3.seed, stop_after=2)
+        run_in_folder(parse_config(t3.config_text), folder, t3.seed, stop_after=2, reports=False)
 
     assert main(["summarize", str(out)]) == 0
     with open(out / "summary.csv", newline="") as fh:
@@ -96,7 +97,7 @@ def test_seeds_are_ranked_on_the_extremes_pooled_over_the_design_space(tmp_path,
         for s in seeds:
             f = RunFolder.create(out, f"{name}-s{s}", text, s, f"k{s}", exact=True)
             f.update_manifest(name=name)
-            run_pipeline(parse_config(text, source=f"{name}.yaml"), f, s, pareto=False)
+            run_in_folder(parse_config(text, source=f"{name}.yaml"), f, s, pareto=False, reports=False)
     rows = [row_from_folder(f) for f in collect_folders([out])]
     assert len({r["design_space"] for r in rows}) == 1 and len({r["config_key"] for r in rows}) == 2
     res = {r["folder"]: json.loads((Path(r["folder"]) / "results.json").read_text()) for r in rows}

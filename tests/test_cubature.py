@@ -170,7 +170,7 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     """results.json["integrals"]: the optimum, the named designs and the
     extremes, each with the grid's mean and error beside the integral; a
     singular extreme is unbounded (null mean) and results.md says so."""
-    from optdesign.evaluate import workspace_of
+    from optdesign.evaluate import Evaluator, workspace_of
     from optdesign.optimize.integrals import integrals_of_reported
     from optdesign.report.integrals import integral_lines
 
@@ -179,7 +179,7 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     results = {"optimum": after,
                "designs": {n: {"parameters": cfg.design(n)} for n in ("before", "after")},
                "normalization": {"dynamic": {"min_design": after, "max_design": sing}}}
-    rec = integrals_of_reported(cfg, results, workspace_of(cfg))
+    rec = integrals_of_reported(cfg.checks, Evaluator.from_config(cfg, workspace_of(cfg)), cfg.units(), results)
     assert set(rec["designs"]) == {"optimum", "before", "after", "dynamic.min", "dynamic.max"}
     opt = rec["designs"]["optimum"]
     for k in cfg.indices:
@@ -189,10 +189,10 @@ def test_reported_designs_get_their_integral_beside_the_grid(paper_config):
     top = rec["designs"]["dynamic.max"]
     assert top["integral"]["dynamic"]["status"] == "unbounded" and top["integral"]["dynamic"]["mean"] is None
     assert np.isfinite(top["quadrature"]["dynamic"]["mean"])   # the grid's artifact, kept beside it
-    text = "\n".join(integral_lines(cfg, {"integrals": rec}))
+    text = "\n".join(integral_lines(cfg.units(), {"integrals": rec}))
     assert "| dynamic.max | dynamic [kg] |" in text and "unbounded" in text and "`dynamic.max`" in text
     # a config whose sampling is adaptive needs no second record
-    assert integrals_of_reported(cfg, results, _adaptive(cfg, 1e-3)) is None
+    assert integrals_of_reported(cfg.checks, Evaluator.from_config(cfg, _adaptive(cfg, 1e-3)), cfg.units(), results) is None
 
 
 def test_a_cylinder_with_a_height_range():

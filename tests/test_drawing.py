@@ -146,9 +146,8 @@ def _check_report_mechanism(text, run_dir):
     rods = next(t for t in data if t["name"].startswith("rods"))
     assert legs["type"] == "scatter3d" and any(t["type"] == "mesh3d" for t in data)
     run = load_run(run_dir)
-    cfg = run.cfg
-    mech = build(cfg, {k: float(v) for k, v in run.results["optimum"].items()})
-    ws = cfg.workspace
+    mech = run.model.build({k: float(v) for k, v in run.results["optimum"].items()})
+    ws = run.workspace
     centre = np.array([ws.center[0], ws.center[1], 0.5 * sum(ws.axes["z"])] if ws.type == "cylinder"
                       else [0.5 * sum(ws.axes[a]) for a in ("x", "y", "z")])
     q = mech.inverse(centre[None])[0]
@@ -169,7 +168,7 @@ def test_a_high_dimensional_workspace_is_sampled_within_bounds():
     from optdesign.report.html.views import MAX_SAMPLE, _sample, _surface_grid
 
     cfg = load_config("configs/gough_stewart.yaml")
-    run = RunData(Path("."), {}, {"optimum": cfg.design("reference")}, cfg)
+    run = RunData.of(Path("."), {}, {"optimum": cfg.design("reference")}, cfg)
     X = _sample(run)
     assert 2 ** 6 <= len(X) <= MAX_SAMPLE and X.shape[1] == 6
     assert np.all(np.ptp(X, axis=0) > 0)
@@ -187,7 +186,7 @@ def test_a_two_dimensional_workspace_is_a_surface_of_the_local_index():
 
     cfg = load_config("tests/data/p4s_tiny.yaml")
     d = cfg.design(next(iter(cfg.designs)))
-    run = RunData(Path("."), {}, {"optimum": d}, cfg)
+    run = RunData.of(Path("."), {}, {"optimum": d}, cfg)
     fig = workspace_figure(run, d)
     surf = fig.data[0]
     assert surf.type == "surface" and len(fig.data) == len(cfg.indices)

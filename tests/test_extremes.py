@@ -18,9 +18,10 @@ from optdesign.config import ConfigError, parse_config
 from optdesign.evaluate import Evaluator, workspace_of
 from optdesign.optimize.algorithms import build_algorithm, reference_directions
 from optdesign.optimize.extremes import SNAP, extremes_scan, snap
-from optdesign.optimize.pipeline import run_pipeline, stage_plan
+from optdesign.optimize.pipeline import stage_plan
 from optdesign.optimize.problem import DesignProblem, extra_term, index_term
 from optdesign.optimize.refine import non_dominated
+from optdesign.runner import run_in_folder
 from optdesign.runs import RunFolder
 
 TINY = """mechanism: p4s
@@ -41,16 +42,20 @@ optimizer: {population: 8, generations: 3, elites: 2, seed: 1, checkpoint_interv
 """
 
 
+def _plan(cfg):
+    return stage_plan(cfg.optimizer, {k: s.sense for k, s in cfg.indices.items()})
+
+
 def _cfg(text=TINY):
     return parse_config(text, source="ext_tiny.yaml")
 
 
 def test_the_extremes_stage_runs_with_the_polish_only():
-    names = [s.kind for s in stage_plan(_cfg())]
+    names = [s.kind for s in _plan(_cfg())]
     assert names.count("extremes") == 1 and names.index("extremes") < names.index("weighted")
     for edit in ("polish: 1", "extremes: {starts: 2, scan: 128}"):
         off = TINY.replace(edit, {"polish: 1": "polish: 0"}.get(edit, "extremes: {starts: 0}"))
-        assert "extremes" not in [s.kind for s in stage_plan(_cfg(off))]
+        assert "extremes" not in [s.kind for s in _plan(_cfg(off))]
     with pytest.raises(ConfigError, match=r"optimizer\.extremes"):
         _cfg(TINY.replace("starts: 2,", "stars: 2,"))
     with pytest.raises(ConfigError, match=r"optimizer\.extremes\.starts"):
@@ -87,7 +92,7 @@ def runs(tmp_path_factory):
     for s in (1, 2, 3):
         root = tmp_path_factory.mktemp(f"ext{s}")
         f = RunFolder.create(root, f"s{s}", TINY, s, f"k{s}", exact=True)
-        out[s] = run_pipeline(_cfg(), f, s)
+        out[s] = run_in_folder(_cfg(), f, s, reports=False)
     return out
 
 

@@ -282,7 +282,8 @@ def test_resumed_run_percent_counts_the_stages_done_before(tmp_path):
 
     _small(tmp_path)
     cfg = load_config(tmp_path / "small.yaml")
-    plan = [(st.name, *stage_work(cfg, st)) for st in stage_plan(cfg)]
+    plan = [(st.name, *stage_work(cfg.optimizer, st))
+            for st in stage_plan(cfg.optimizer, {k: s.sense for k, s in cfg.indices.items()})]
     p = Progress(False)
     p.plan(plan, done=[n for n, *_ in plan[:5]])
     line = p._run_line(200)

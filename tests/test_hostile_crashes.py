@@ -44,7 +44,7 @@ def test_the_optimality_measure_survives_impossible_geometry_next_to_the_design(
     o = optimality(DesignProblem(ev, [index_term("dynamic", "min")]), edge, ev.free)
     assert o["measurable"] is False and o["converged"] is False and o["kkt_relative"] is None
     json.dumps(o, allow_nan=False)                                   # results.json stays valid JSON
-    lines = optimality_lines(None, {"polish": {"optimality": o, "starts": 1, "objective": 1.0}})
+    lines = optimality_lines({"polish": {"optimality": o, "starts": 1, "objective": 1.0}})
     assert any("not measured" in line for line in lines)
     inside = ev.vector({"r_a": 0.25, "r_b": 0.67, "d": 0.12, "phi": np.radians(30)})
     o = optimality(DesignProblem(ev, [index_term("dynamic", "min")]), inside, ev.free)

@@ -3,7 +3,6 @@ pareto.png, summary.png, compare.html, the plotly toolbar)."""
 from __future__ import annotations
 
 import json
-import types
 from pathlib import Path
 
 import pytest
@@ -24,7 +23,7 @@ def test_convergence_is_on_a_log_axis_not_flat_at_zero():
     from optdesign.report.png import convergence_figure
 
     best = [0.3 * 10.0 ** -k for k in range(8)]          # falls by decades: flat at 0 on a linear axis
-    fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [3 * b for b in best]))
+    fig = convergence_figure("c", _hist(best, [3 * b for b in best]))
     try:
         ax = fig.axes[0]
         assert ax.get_yscale() == "log"
@@ -41,7 +40,7 @@ def test_convergence_with_round_off_zeros_is_symlog_and_says_so():
     from optdesign.report.png import convergence_figure
 
     best = [0.2, 1e-3, 1e-5, 3e-17, 0.0]
-    fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [0.5, 0.1, 1e-2, 1e-4, 1e-6]))
+    fig = convergence_figure("c", _hist(best, [0.5, 0.1, 1e-2, 1e-4, 1e-6]))
     try:
         ax = fig.axes[0]
         assert ax.get_yscale() == "symlog"
@@ -62,7 +61,7 @@ def test_pareto_markers_are_not_cut_at_the_frame():
     cfg = config_of_folder(REPRO)
     results = json.loads((REPRO / "results.json").read_text())
     stages = {p.name: json.loads((p / "result.json").read_text()) for p in (REPRO / "stages").iterdir()}
-    fig = pareto_figure(cfg, results, stages)
+    fig = pareto_figure(cfg.units(), results, stages)
     try:
         marks = [c for ax in fig.axes for c in ax.collections if isinstance(c, PathCollection)]
         assert marks
@@ -141,7 +140,7 @@ def test_convergence_with_positive_round_off_is_symlog_so_the_best_line_is_drawn
     from optdesign.report.png import convergence_figure
 
     best = [0.2, 1e-3, 5.4e-18, 5.4e-18]
-    fig = convergence_figure(types.SimpleNamespace(name="c"), _hist(best, [0.5, 0.1, 1e-2, 1e-4]))
+    fig = convergence_figure("c", _hist(best, [0.5, 0.1, 1e-2, 1e-4]))
     try:
         ax = fig.axes[0]
         assert ax.get_yscale() == "symlog" and "round-off" in ax.get_title()

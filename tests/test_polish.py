@@ -26,9 +26,8 @@ from conftest import CONFIGS, PAPER, edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.evaluate import Evaluator
-from optdesign.optimize.pipeline import run_pipeline
 from optdesign.optimize.polish import TOLERANCE
-from optdesign.runner import run_outputs
+from optdesign.runner import run_in_folder
 from optdesign.runs import RunFolder
 
 GRID = 41
@@ -39,7 +38,7 @@ def _paper_run(tmp_path_factory, edits=None):
                                            **(edits or {})})
     cfg = parse_config(text, source=str(PAPER))
     folder = RunFolder.create(tmp_path_factory.mktemp("paper"), "paper", text, 1, "k")
-    res = run_pipeline(cfg, folder, 1, pareto=True, outputs=run_outputs())
+    res = run_in_folder(cfg, folder, 1, pareto=True)
     return cfg, res
 
 
@@ -143,7 +142,7 @@ def test_no_normalized_objective_leaves_zero_one_over_seeds_1_to_5(path, tmp_pat
     text = _small(path.read_text())
     for seed in range(1, 6):
         cfg = parse_config(text, source=str(path))
-        r = run_pipeline(cfg, RunFolder.create(tmp_path, f"s{seed}", text, seed, "k"), seed).results
+        r = run_in_folder(cfg, RunFolder.create(tmp_path, f"s{seed}", text, seed, "k"), seed, reports=False).results
         norm = r["normalization"]
         total = sum(v["weight"] for v in norm.values())
         assert 0.0 <= r["objective"] <= total and 0.0 <= r["objective_paper_literal"] <= total, seed
@@ -177,7 +176,7 @@ def test_the_pre_scan_follows_the_budget_unless_the_config_says():
     small = parse_config(edited_text(PAPER.read_text(), {"generations: 100 ": "generations: 3 "}), source="s.yaml")
     assert prescan_size(small.optimizer) == 150
     none = parse_config(edited_text(PAPER.read_text(), {"  seed: 1\n": "  seed: 1\n  prescan: 0\n"}), source="n.yaml")
-    assert prescan_size(none.optimizer) == 0 and stage_plan(none)[0].kind == "single"
+    assert prescan_size(none.optimizer) == 0 and stage_plan(none.optimizer, {k: s.sense for k, s in none.indices.items()})[0].kind == "single"
 
 
 def test_the_optimality_measure_says_where_the_objective_has_a_kink():

@@ -231,7 +231,8 @@ def test_progress_never_wider_than_the_terminal(tmp_path):
     from optdesign.config import load_config
     from optdesign.optimize.pipeline import stage_plan
 
-    n = len(stage_plan(load_config(tmp_path / "small.yaml")))   # pre-scan, 6 single, 2 weighted, 2 Pareto
+    cfg = load_config(tmp_path / "small.yaml")
+    n = len(stage_plan(cfg.optimizer, {k: s.sense for k, s in cfg.indices.items()}))   # pre-scan, 6 single, 2 weighted, 2 Pareto
     assert n >= 10
     assert any("stages done" in s and f"/{n} " in s for s in lines)
     done = {re.match(rf"done \[(\d+)/{n}\]", s).group(1) for s in lines if re.match(rf"done \[\d+/{n}\]", s)}

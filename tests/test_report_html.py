@@ -225,7 +225,7 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
     drawn points matches the global index over a quasi-random sample of the
     disc (a different sampling), while the bounding square's differs by 1-3 %."""
     from optdesign.config import parse_config
-    from optdesign.evaluate import evaluate
+    from optdesign.evaluate import DesignModel, evaluate
     from optdesign.report.html.atlas import atlas_map
 
     d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
@@ -233,7 +233,7 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
                       "seed": 5}
     cfg = parse_config(yaml.safe_dump(d))
     design = cfg.initial_design()
-    m = atlas_map(cfg, design, 81)
+    m = atlas_map(DesignModel.from_config(cfg), cfg.units(), cfg.workspace, design, 81)
     assert m.shape == "disc" and m.outline is not None
     np.testing.assert_allclose(np.hypot(*m.outline), 0.04, rtol=1e-12)
     A, B = np.meshgrid(*m.coords)
@@ -252,10 +252,11 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
 
 def test_atlas_of_a_3d_workspace_is_a_named_centre_slice():
     from optdesign.config import load_config
+    from optdesign.evaluate import DesignModel
     from optdesign.report.html.atlas import atlas_map
 
     cfg = load_config(ROOT / "configs" / "sps_s_opt.yaml")
-    m = atlas_map(cfg, cfg.initial_design(), 31)
+    m = atlas_map(DesignModel.from_config(cfg), cfg.units(), cfg.workspace, cfg.initial_design(), 31)
     assert m.axes == ["psi", "theta"] and m.units == ["deg", "deg"]
     assert m.cut.startswith("phi = 0 deg")
     np.testing.assert_allclose(m.coords[0][[0, -1]], [-10, 10])

@@ -100,7 +100,7 @@ def test_weighted_optimum_against_the_front(tmp_path):
 
     cfg = load_config(DATA / "p4s_tradeoff_small.yaml")
     front = [{strip_unit(k): float(v) for k, v in r.items()} for r in front]
-    F = np.array([[(-1 if t.startswith("-") else 1) * r[t.lstrip("-")] / objective_unit(cfg, t.lstrip("-"))[1]
+    F = np.array([[(-1 if t.startswith("-") else 1) * r[t.lstrip("-")] / objective_unit(cfg.units(), t.lstrip("-"))[1]
                    for t in terms] for r in front])
     Fn = (F - lo) / (hi - lo)
     p = np.array(pl["normalized_objectives"])
@@ -310,23 +310,26 @@ def test_the_pipeline_writes_the_reports_it_is_handed(tmp_path):
     the page after; the numbers are the same either way."""
     from optdesign.optimize.outputs import RunOutputs
     from optdesign.optimize.pipeline import run_pipeline
-    from optdesign.runner import config_text, run_outputs
+    from optdesign.runner import config_text, run_outputs, run_spec
 
     cfg = load_config(DATA / "p4s_tiny.yaml")
     text = config_text(cfg)
-    bare = run_pipeline(cfg, RunFolder.create(tmp_path, "bare", text, 7, "k"), 7, pareto=False)
+    spec = run_spec(cfg)        # the plain pieces the pipeline reads: no config below the runner
+    bare = run_pipeline(spec, RunFolder.create(tmp_path, "bare", text, 7, "k"), 7, pareto=False)
     assert (bare.folder.path / "results.json").is_file()
     assert not [n for n in ("results.md", "optimum.yaml", "report.html", "convergence.png", "history.csv")
                 if (bare.folder.path / n).exists()]
     assert "reference_note" not in bare.results
     seen = []
-    outputs = RunOutputs(reference_note=lambda c: f"a note on {c.name}",
-                         write_report=lambda c, f, r, s: seen.append(("report", f.read_manifest()["status"])),
+    outputs = RunOutputs(reference_note=lambda: "a note",
+                         write_report=lambda f, r, s: seen.append(("report", f.read_manifest()["status"])),
                          write_html=lambda f: seen.append(("html", f.read_manifest()["status"])))
-    handed = run_pipeline(cfg, RunFolder.create(tmp_path, "handed", text, 7, "k"), 7, pareto=False, outputs=outputs)
-    assert handed.results.pop("reference_note") == f"a note on {cfg.name}"
+    handed = run_pipeline(spec, RunFolder.create(tmp_path, "handed", text, 7, "k"), 7, pareto=False, outputs=outputs)
+    assert handed.results.pop("reference_note") == "a note"
     assert seen == [("report", "running"), ("html", "complete")]
     assert _strip(handed.results) == _strip(bare.results)
-    full = run_pipeline(cfg, RunFolder.create(tmp_path, "full", text, 7, "k"), 7, pareto=False, outputs=run_outputs())
+    full = run_pipeline(spec, RunFolder.create(tmp_path, "full", text, 7, "k"), 7, pareto=False,
+                        outputs=run_outputs(cfg, lambda c: f"a note on {c.name}"))
+    assert full.results.pop("reference_note") == f"a note on {cfg.name}"   # the runner binds the study to the config
     assert all((full.folder.path / n).is_file() for n in ("results.md", "optimum.yaml", "report.html", "history.csv"))
     assert _strip(full.results) == _strip(bare.results)

@@ -216,14 +216,15 @@ def test_configs_evaluate_and_atlas(tmp_path):
 
     from optdesign.report.atlas import write_atlas
     from optdesign.config import load_config
-    from optdesign.evaluate import evaluate_named
+    from optdesign.evaluate import DesignModel, evaluate_named
 
     cfg = load_config(CONFIGS / "ups_upr_s.yaml")
     assert cfg.design("paper")["R"] == pytest.approx(0.26)
     res = evaluate_named(cfg, ["paper"])["paper"]
     assert res["reachable_fraction"] == 1.0
     assert 0 < res["dexterity"]["max"] <= 0.5 + 1e-12      # 1/cond_F <= 1/n for a 2x2 matrix
-    out = write_atlas(cfg, "paper", tmp_path / "atlas", resolution=9, plots=False)
+    out = write_atlas(DesignModel.from_config(cfg), cfg.units(), cfg.workspace, cfg.design("paper"), tmp_path / "atlas",
+                      resolution=9, plots=False)
     lines = (out / "local_indices.csv").read_text().splitlines()
     assert lines[0].startswith("s_theta [–],s_psi [–],reachable") and len(lines) == 82   # sines: dimensionless
     opt = load_config(CONFIGS / "ups_upr_s_opt.yaml")

@@ -27,10 +27,9 @@ from conftest import DATA, edited_text
 
 from optdesign.config import load_config, parse_config
 from optdesign.optimize.pipeline import _stage_in_worker, execute_stage, stage_plan
-from optdesign.runner import start_run
+from optdesign.runner import run_spec, start_run
 from optdesign.optimize.workers import Interrupted, StagePool, StopRequest
 from optdesign.runs import RunFolder
-from optdesign.workspace import sample
 
 TINY = DATA / "p4s_tiny.yaml"
 
@@ -81,19 +80,20 @@ def _long(tmp_path, generations: int):
     return cfg, text
 
 
-def _first_ga_stage(cfg):
-    return next(s for s in stage_plan(cfg) if s.kind == "single")
+def _first_ga_stage(spec):
+    return next(s for s in stage_plan(spec.optimizer, spec.evaluator.senses) if s.kind == "single")
 
 
 @pytest.mark.slow
 def test_a_busy_worker_stops_at_the_boundary_and_its_stage_resumes(tmp_path):
     cfg, text = _long(tmp_path, 400)
-    ws = sample(cfg.workspace, ("x", "y", "z"))
-    st = _first_ga_stage(cfg)
+    spec = run_spec(cfg)
+    pieces = (spec.evaluator, spec.optimizer, spec.units)     # what a stage reads
+    st = _first_ga_stage(spec)
     folder = RunFolder.create(tmp_path / "runs", "w", text, 11, "k")
     pool = StagePool(1, folder.path)
     try:
-        pool.submit((0, st), st.name, _stage_in_worker, cfg, str(folder.path), st, 0, {}, {}, 11, ws, None)
+        pool.submit((0, st), st.name, _stage_in_worker, *pieces, str(folder.path), st, 0, {}, {}, 11, None)
         ck = folder.checkpoint_path(st.name)
         deadline = time.time() + 120
         while not ck.exists() and time.time() < deadline:
@@ -109,9 +109,9 @@ def test_a_busy_worker_stops_at_the_boundary_and_its_stage_resumes(tmp_path):
     assert not (folder.path / ".stop").exists()
     meta, _ = folder.load_checkpoint(st.name)
     assert meta["history"]["rows"] == meta["n_iter"] - 1 < 400     # stopped early, at a boundary
-    execute_stage(cfg, folder, st, 0, {}, {}, 11, ws)                # resumed here
+    execute_stage(*pieces, folder, st, 0, {}, {}, 11)                # resumed here
     whole = RunFolder.create(tmp_path / "runs", "whole", text, 11, "k")
-    execute_stage(cfg, whole, st, 0, {}, {}, 11, ws)
+    execute_stage(*pieces, whole, st, 0, {}, {}, 11)
     for f in ("history.csv", "population.csv", "result.json"):
         a = (folder.path / "stages" / st.name / f).read_bytes()
         assert a == (whole.path / "stages" / st.name / f).read_bytes(), f
@@ -144,14 +144,14 @@ def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
         from optdesign.config import load_config
         from optdesign.optimize.pipeline import _stage_in_worker, stage_plan
         from optdesign.optimize.workers import StagePool
+        from optdesign.runner import run_spec
         from optdesign.runs import RunFolder
-        from optdesign.workspace import sample
-        cfg = load_config({str(tmp_path / 'long.yaml')!r})
-        st = next(s for s in stage_plan(cfg) if s.kind == "single")
+        spec = run_spec(load_config({str(tmp_path / 'long.yaml')!r}))
+        st = next(s for s in stage_plan(spec.optimizer, spec.evaluator.senses) if s.kind == "single")
         folder = RunFolder.create({str(tmp_path / 'runs')!r}, "orphan", open({str(tmp_path / 'long.yaml')!r}).read(), 11, "k", exact=True)
         pool = StagePool(1, folder.path)
-        pool.submit((0, st), st.name, _stage_in_worker, cfg, str(folder.path), st, 0, {{}}, {{}}, 11,
-                    sample(cfg.workspace, ("x", "y", "z")), None)
+        pool.submit((0, st), st.name, _stage_in_worker, spec.evaluator, spec.optimizer, spec.units,
+                    str(folder.path), st, 0, {{}}, {{}}, 11, None)
         while not folder.checkpoint_path(st.name).exists():
             time.sleep(0.01)
         print("busy", flush=True)
@@ -170,7 +170,7 @@ def test_an_orphaned_busy_worker_saves_stops_and_exits(tmp_path):
     finally:
         proc.kill()
     folder = RunFolder(tmp_path / "runs" / "orphan")
-    meta, _ = folder.load_checkpoint(_first_ga_stage(cfg).name)   # whole, and data only
+    meta, _ = folder.load_checkpoint(_first_ga_stage(run_spec(cfg)).name)   # whole, and data only
     assert 1 <= meta["history"]["rows"] == meta["n_iter"] - 1 < 100000
 
 

@@ -109,8 +109,8 @@ def run_task(task: Task, out: str, quiet: bool = True, reference_note=None) -> d
     be used gives a row with status ``failed`` and the error, so the rest of
     the batch goes on.  ``reference_note``: see :func:`optdesign.runner.run_outputs`.
     """
-    from ..optimize.pipeline import Progress, run_pipeline
-    from ..runner import run_outputs
+    from ..optimize.progress import Progress
+    from ..runner import run_in_folder
 
     folder = RunFolder(Path(out) / task.folder_name)
     state = "new"
@@ -133,8 +133,8 @@ def run_task(task: Task, out: str, quiet: bool = True, reference_note=None) -> d
             except FileExistsError:  # another worker created it meanwhile: resume it
                 state = "resumed"
         with folder.lock():     # another worker running this folder: this task fails, naming it
-            run_pipeline(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto,
-                         outputs=run_outputs(reference_note))
+            run_in_folder(cfg, folder, task.seed, Progress(False if quiet else None), pareto=task.pareto,
+                          reference_note=reference_note)
     except (RunFolderError, ConfigError, RuntimeError, ValueError, ArithmeticError, OSError) as exc:
         try:
             row = row_from_folder(folder.path)

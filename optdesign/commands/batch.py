@@ -189,7 +189,7 @@ def _row_line(row: dict) -> str:
         from ..units import design_text
 
         cfg = config_of_folder(Path(row["folder"]))
-        opt = design_text(cfg, {k[4:]: v for k, v in row.items() if k.startswith("opt_")})
+        opt = design_text(cfg.units(), {k[4:]: v for k, v in row.items() if k.startswith("opt_")})
     except Exception:  # noqa: BLE001 - the SI values then, named as such
         opt += " (SI)"
     f = row["objective"]

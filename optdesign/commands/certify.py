@@ -40,6 +40,7 @@ def run(args) -> int:
     iso = [k for k, s in cfg.indices.items() if s.kind == "isotropy"]
     conv = (cfg.indices[iso[0]].convention or "frobenius") if iso else "two_norm"
     limit = cfg.optimizer.singularity_threshold
+    units = cfg.units()
     out = {}
     for n in names:
         c = certify_design(build(cfg, n), region, limit, conv, cfg.optimizer.stroke_limits, budget=budget)
@@ -49,7 +50,7 @@ def run(args) -> int:
         if not args.json:
             line = f"{n}: {c['status']}"
             if c["status"] == "refuted":
-                pose = ", ".join(f"{a} = {v * pose_display(cfg, a)[1]:.6g} {pose_display(cfg, a)[0]}"
+                pose = ", ".join(f"{a} = {v * pose_display(units, a)[1]:.6g} {pose_display(units, a)[0]}"
                                  for a, v in zip(ws.names, c["witness"]))
                 val = {"unreachable": "a leg does not close", "stroke": "a stroke limit is broken"}.get(
                     c.get("reason"), f"cond {c['value']:.6g} > {limit:g}" if c.get("value") is not None

@@ -87,7 +87,8 @@ def run(args) -> int:
 
     from ..units import pose_display
 
-    shown = {a: pose_display(cfg, a) for a in ws.names}   # the workspace in the config's units, each named
+    units = cfg.units()
+    shown = {a: pose_display(units, a) for a in ws.names}   # the workspace in the config's units, each named
     print(f"{cfg.source}: {cfg.mechanism}, workspace {ws.describe(shown)}")
     print(f"±: error estimate of the mean against the integral over W: {error_method(ws)}")
     if ws.spec.sampling == "adaptive":
@@ -96,7 +97,7 @@ def run(args) -> int:
     headers = ["design", "index", "mean", "±", "reference", "rel. diff"]
     rows = comparison_rows(cfg, res)
     for r in rows:   # the index with its unit (SI)
-        r[1] = index_label(cfg, r[1])
+        r[1] = index_label(units, r[1])
     if not cfg.reference:   # no reference values: no columns for them
         keep = [i for i, h in enumerate(headers) if h not in ("reference", "rel. diff")]
         headers, rows = [headers[i] for i in keep], [[r[i] for i in keep] for r in rows]
@@ -104,7 +105,7 @@ def run(args) -> int:
     print()
     spread = spread_rows(cfg, res)
     for r in spread:
-        r[1] = index_label(cfg, r[1])
+        r[1] = index_label(units, r[1])
     print_table(["design", "index", "min over W", "max over W", "std over W"], spread)
     print()
     print_table(["design", "reachable fraction"], [[n, f"{r['reachable_fraction']:.4f}"] for n, r in res.items()])

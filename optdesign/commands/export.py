@@ -59,10 +59,10 @@ def design_of(run, name: str) -> tuple[str, dict]:
     from ._common import UsageError
     from ..config.reader import shorten, suggest
 
-    cfg, res = run.cfg, run.results
+    res = run.results
     names = ["optimum"] + [n for n in res.get("designs", {}) if isinstance(n, str)]
     def numbers(values: dict, key: str) -> dict:
-        out = {k: values[k] for k in cfg.design_variables if k in values}
+        out = {k: values[k] for k in run.units.variables if k in values}
         for k, v in out.items():
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise UsageError(f"{run.path / 'results.json'}: {key}.{k}: expected a finite number, got {shorten(v)}")
@@ -88,21 +88,20 @@ def design_of(run, name: str) -> tuple[str, dict]:
                      f"the run has {', '.join(names + fronts)}")
 
 
-def keyframe_pose(cfg, mech):
-    """The centre of the workspace W (SI), or W's first reachable sample point."""
+def keyframe_pose(ws, mech):
+    """The centre of the workspace W (its spec ``ws``; SI), or W's first reachable sample point."""
     import numpy as np
 
-    from ..evaluate import mechanism_class, workspace_of
+    from ..workspace import sample
 
-    names = mechanism_class(cfg).pose_names
-    ws = cfg.workspace
+    names = mech.pose_names
     if ws.type == "cylinder":
         X = np.array([ws.center[0], ws.center[1], 0.5 * sum(ws.axes[names[2]])] + [0.5 * sum(ws.axes[a]) for a in names[3:]])
     else:
         X = np.array([0.5 * sum(ws.axes[a]) for a in names], float)
     if bool(mech.reachable(X[None])[0]):
         return X, "the centre of W"
-    S = workspace_of(cfg).X
+    S = sample(ws, names).X
     ok = np.asarray(mech.reachable(S))
     if not ok.any():
         raise ValueError("the design reaches no point of the workspace W")
@@ -114,7 +113,6 @@ def run(args) -> int:
     from pathlib import Path
 
     from ._common import UsageError
-    from ..evaluate import build
     from ..io import atomic_write_text
     from ..mjcf_export import DEFAULT_FREQUENCY, export_mjcf, model_module
     from ..report.html.rundata import load_run
@@ -128,22 +126,21 @@ def run(args) -> int:
         run_data = load_run(args.run_dir)
     except RunFolderError as exc:
         raise UsageError(str(exc)) from None
-    cfg = run_data.cfg
     label, design = design_of(run_data, args.design)
     try:
-        mech = build(cfg, design)
+        mech = run_data.model.build(design)
     except (ValueError, TypeError) as exc:
         raise UsageError(f"{run_data.path / 'results.json'}: design {args.design}: {exc}") from None
     if model_module(mech) is None:
-        raise UsageError(f"{cfg.source}: mechanism: mechanism {cfg.mechanism!r} has no MuJoCo model "
+        raise UsageError(f"{run_data.path / 'config.yaml'}: mechanism: mechanism {run_data.mechanism!r} has no MuJoCo model "
                          "(the 3-P(4S) and described mechanisms with masses have one)")
     try:
         import mujoco
     except ImportError:
         raise UsageError("MuJoCo is not installed; install the validation extra: pip install 'optdesign[validation]'") from None
     try:
-        X, where = keyframe_pose(cfg, mech)
-        text = export_mjcf(mech, X, frequency=f, model_name=f"{cfg.name}-{args.design}")
+        X, where = keyframe_pose(run_data.workspace, mech)
+        text = export_mjcf(mech, X, frequency=f, model_name=f"{run_data.name}-{args.design}")
         model = mujoco.MjModel.from_xml_string(text)        # it loads and steps before it is written
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, 0)

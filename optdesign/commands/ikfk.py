@@ -54,7 +54,8 @@ def run(args) -> int:
     elif ok:
         from ..units import actuator_units, pose_unit
 
-        units = actuator_units(cfg) if args.kin == "ik" else [pose_unit(cfg, a) for a in names_out]
+        shown = cfg.units()
+        units = actuator_units(shown) if args.kin == "ik" else [pose_unit(shown, a) for a in names_out]
         print("  ".join(f"{n} = {x:.12g}" + ("" if u == "1" else f" {u}") for n, x, u in zip(names_out, out, units)))
     else:
         what = "this pose" if args.kin == "ik" else "these actuator values"

@@ -28,11 +28,11 @@ def run(args) -> int:
         r = res.results
         print()
         print("Table 3 (design parameters):" if cfg.reference else "Design parameters:")
-        print_text(parameter_table(cfg, r))
+        print_text(parameter_table(cfg.units(), r))
         print()
         print("Global indices (means over W):")
-        print_text(index_table(cfg, r))
-        ref = reference_table(cfg, r)
+        print_text(index_table(cfg.units(), r))
+        ref = reference_table(cfg.units(), r)
         if ref:
             print()
             print("Beside the paper's values (the config's reference):")
@@ -44,7 +44,7 @@ def run(args) -> int:
             print()
             print(f"The integral over W (adaptive cubature, relative tolerance {r['integrals']['tolerance']:g}) "
                   "beside the config's quadrature:")
-            print_text(integral_table(cfg, r, keys))
+            print_text(integral_table(cfg.units(), r, keys))
         ref_f = [f"{v['objective']} ({n})" for n, v in (r.get("reference") or {}).items()
                  if isinstance(v, dict) and isinstance(v.get("objective"), (int, float))]
         print()

@@ -33,12 +33,13 @@ def run_json(res, cfg=None, wall: float | None = None) -> dict:
     from ..units import index_unit, variable_unit
 
     cfg = cfg or config_of_folder(res.folder.path)
+    units = cfg.units()
     r, path = res.results, res.folder.path.resolve()
     out = {"folder": str(path), "status": r["status"], "config": cfg.name, "mechanism": cfg.mechanism,
            "seed": r["seed"], "objective": r["objective"],
-           "optimum": {k: {"value": dv.display(r["optimum"][k]), "unit": variable_unit(cfg, k), "si": r["optimum"][k],
+           "optimum": {k: {"value": dv.display(r["optimum"][k]), "unit": variable_unit(units, k), "si": r["optimum"][k],
                            "free": dv.free} for k, dv in cfg.design_variables.items()},
-           "global_indices": {k: {"mean": v, "unit": index_unit(cfg, k), "sense": cfg.indices[k].sense}
+           "global_indices": {k: {"mean": v, "unit": index_unit(units, k), "sense": cfg.indices[k].sense}
                               for k, v in r["global_indices"].items() if k in cfg.indices},
            "evaluations": r.get("evaluations"), "wall_time_s": r.get("wall_time_s"),
            "files": {n: str(path / n) for n in ("results.json", "results.md", "report.html", "optimum.yaml")
@@ -60,8 +61,9 @@ def summary_line(res, cfg=None, wall: float | None = None) -> str:
     r = res.results
     if cfg is None:
         cfg = config_of_folder(res.folder.path)
-    opt = design_text(cfg, r["optimum"]) or "no free variable"
-    idx = ", ".join(index_text(cfg, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
+    units = cfg.units()
+    opt = design_text(units, r["optimum"]) or "no free variable"
+    idx = ", ".join(index_text(units, k, v) for k, v in r["global_indices"].items() if k in cfg.indices)
     f = r["objective"]
     f_txt = "0 (to round-off)" if abs(f) < 1e-12 else f"{f:.6g}"
     return (f"{res.folder.path}: {r['status']} seed={r['seed']} objective f={f_txt} "

@@ -4,30 +4,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..units import DesignVariable, Units
 from ..workspace import WorkspaceSpec
 from .checks import ChecksSpec
 from .keys import OPTIMIZER, spec_class
-from .reader import UNITS, ConfigError
+from .reader import ConfigError
 
 __all__ = ["Config", "DesignVariable", "IndexSpec", "OptimizerSpec", "WorkspaceSpec"]
-
-
-@dataclass(frozen=True)
-class DesignVariable:
-    """A design parameter: its initial value and, if it is optimized, its bounds (SI)."""
-
-    name: str
-    value: float
-    bounds: tuple[float, float] | None
-    unit: str | None = None  # the unit the config wrote it in (for display)
-
-    @property
-    def free(self) -> bool:
-        return self.bounds is not None and self.bounds[1] > self.bounds[0]
-
-    def display(self, x: float) -> float:
-        """SI value -> the unit of the config (degrees stay degrees in tables)."""
-        return x / UNITS[self.unit] if self.unit in ("deg", "mm") else x
 
 
 @dataclass(frozen=True)
@@ -101,3 +84,11 @@ class Config:
 
     def initial_design(self) -> dict[str, float]:
         return {k: v.value for k, v in self.design_variables.items()}
+
+    def units(self) -> Units:
+        """What a user sees of this config's quantities (:class:`optdesign.units.Units`):
+        the plain table the layers below the commands are handed instead of the config."""
+        from ..mechanisms import get
+
+        cls = self.mechanism_class if self.mechanism_class is not None else get(self.mechanism)
+        return Units.of(cls, self.parameters, self.design_variables, self.indices, self.workspace.unit)

@@ -7,7 +7,9 @@ GA operators), ``algorithms`` (the GA, NSGA-II, NSGA-III a stage runs),
 checkpoints and stop requests), ``checkpoint`` (an algorithm's state as data),
 ``workers`` (stop requests, signals, stage worker processes), ``results``
 (stage files, final results, Pareto placement), ``pipeline`` (the plan of
-stages), ``outputs`` (what the layers above hand a run: the reports of
-:mod:`optdesign.report` and a study's note, as plain callables; started and
-resumed with them by :mod:`optdesign.runner`).
+stages), ``spec`` (the plain pieces a run reads: the evaluator, the
+optimizer's and the checks' settings, the units, what the results are
+about; never a config), ``outputs`` (what the layers above hand a run: the
+reports of :mod:`optdesign.report` and a study's note, as plain callables;
+started and resumed with them by :mod:`optdesign.runner`).
 """

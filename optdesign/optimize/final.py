@@ -22,14 +22,14 @@ from .results import place_against_front
 __all__ = ["final_results"]
 
 
-def _named_observed(evaluator, cfg, names, ev) -> dict:
+def _named_observed(evaluator, designs: dict, names, ev) -> dict:
     """The extremes among the named designs that lie in the box and are feasible."""
     if not names:
         return {}
-    X = np.array([evaluator.vector(cfg.design(n)) for n in names])
+    X = np.array([evaluator.vector(designs[n]) for n in names])
     inside = np.all((X >= evaluator.xl) & (X <= evaluator.xu), axis=1)
     # a named design that changes a fixed parameter is not a design of this box
-    inside &= np.array([all(cfg.design(n).get(k, v) == v for k, v in evaluator.defaults.items()
+    inside &= np.array([all(designs[n].get(k, v) == v for k, v in evaluator.defaults.items()
                             if k not in evaluator.free) for n in names])
     if not inside.any():
         return {}
@@ -39,23 +39,31 @@ def _named_observed(evaluator, cfg, names, ev) -> dict:
                     "named design")
 
 
-def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0, reference_note=None) -> dict:
-    """``reference_note(cfg) -> str | None``: a paragraph on the config's reference
-    (results.json's ``reference_note``), given by the caller that knows the study."""
-    from ..evaluate import error_method, evaluate
+def final_results(subject, weights: dict, seed: int, stages: dict, evaluator, polish: int = 0,
+                  reference_note=None) -> dict:
+    """The run's results.json from its finished ``stages``: ``subject``
+    (:class:`.spec.RunSubject`) names the config and its named designs,
+    ``weights`` the indices' weights (the optimizer's settings),
+    ``evaluator`` evaluates designs over the run's workspace; ``polish``: the
+    polish's starts (0: none); ``reference_note() -> str | None``: a paragraph
+    on the config's reference (results.json's ``reference_note``), given by
+    the caller that knows the study."""
+    from ..evaluate import error_method
 
     ws_res = stages["weighted_sum"]
     if not ws_res["feasible"]:
         raise RuntimeError("the weighted-sum GA found no feasible design")
-    names = [n for n in cfg.designs if n != "initial" or len(cfg.designs) == 1]
-    senses = {k: s.sense for k, s in cfg.indices.items()}
-    weighted = [k for k in cfg.indices if cfg.optimizer.weights.get(k, 0) > 0]
-    weights = {k: cfg.optimizer.weights[k] for k in weighted}
+    ws = evaluator.workspace
+    indices, named = evaluator.index_names, subject.designs
+    names = [n for n in named if n != "initial" or len(named) == 1]
+    senses = dict(evaluator.senses)
+    weighted = [k for k in indices if weights.get(k, 0) > 0]
+    weights = {k: weights[k] for k in weighted}
     ext0, _ = fold_extremes(stages, upto_singles=True)
     lo0, hi0 = bounds_of(ext0, weighted)
     ext, changes = fold_extremes(stages)
-    ev_named = evaluate(cfg, [cfg.design(n) for n in names], ws) if names else None
-    for k, b, old, new in merge_observed(ext, _named_observed(evaluator, cfg, names, ev_named), "designs"):
+    ev_named = evaluator.model.evaluate([dict(named[n]) for n in names], ws) if names else None
+    for k, b, old, new in merge_observed(ext, _named_observed(evaluator, named, names, ev_named), "designs"):
         changes.append({"index": k, "bound": b, "from": old, "to": new, "stage": "designs"})
     lo, hi = bounds_of(ext, weighted)
     opt_design, repolish = ws_res["design"], None
@@ -76,23 +84,23 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0, 
         for k, b, old, new in merge_observed(ext, obs, "final"):
             changes.append({"index": k, "bound": b, "from": old, "to": new, "stage": "final"})
         lo, hi = bounds_of(ext, weighted)
-    ev = evaluate(cfg, [opt_design] + [cfg.design(n) for n in names], ws)
+    ev = evaluator.model.evaluate([opt_design] + [dict(named[n]) for n in names], ws)
 
     def summ(i):
-        return {k: {s: float(ev.summary[k][s][i]) for s in ("mean", "min", "max", "std")} for k in cfg.indices}
+        return {k: {s: float(ev.summary[k][s][i]) for s in ("mean", "min", "max", "std")} for k in indices}
 
     def err(i):   # the error estimate of each global index (mean over W) against the integral
-        return {k: float(ev.error[k][i]) for k in cfg.indices}
+        return {k: float(ev.error[k][i]) for k in indices}
 
-    vals = {k: ev.summary[k]["mean"] for k in cfg.indices}
+    vals = {k: ev.summary[k]["mean"] for k in indices}
     ours, literal = _clipped_sum(vals, lo, hi, weights, senses), _clipped_sum(vals, lo, hi, weights, senses, True)
     designs = {}
     for j, n in enumerate(names):
         v = {k: float(vals[k][j + 1]) for k in weighted}
         inside = terms_in_range(v, lo, hi)
-        designs[n] = {"parameters": cfg.design(n), "global_indices": summ(j + 1),
+        designs[n] = {"parameters": dict(named[n]), "global_indices": summ(j + 1),
                       "global_indices_error": err(j + 1),
-                      **({"global_indices_status": {k: str(ev.status[k][j + 1]) for k in cfg.indices}}
+                      **({"global_indices_status": {k: str(ev.status[k][j + 1]) for k in indices}}
                          if ev.status else {}),
                       "reachable_fraction": float(ev.reachable_fraction[j + 1]),
                       "objective": float(ours[j + 1]) if inside else None,
@@ -102,23 +110,23 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0, 
                                             "outside the box or infeasible): its normalized terms would leave [0, 1]")
     full = lambda d: {k: float(v[0]) for k, v in evaluator.designs(evaluator.vector(d)[None, :]).items()}  # noqa: E731
     results = {
-        "status": "complete", "seed": seed, "config": cfg.name, "mechanism": cfg.mechanism,
+        "status": "complete", "seed": seed, "config": subject.name, "mechanism": subject.mechanism,
         "optimum": {k: float(v) for k, v in opt_design.items()},
         "objective": float(ours[0]),
         "objective_paper_literal": float(literal[0]),
-        "global_indices": {k: float(vals[k][0]) for k in cfg.indices},
+        "global_indices": {k: float(vals[k][0]) for k in indices},
         "global_indices_error": err(0),
-        **({"global_indices_status": {k: str(ev.status[k][0]) for k in cfg.indices}} if ev.status else {}),
+        **({"global_indices_status": {k: str(ev.status[k][0]) for k in indices}} if ev.status else {}),
         "error_method": error_method(ws),
         "global_index_summary": summ(0),
         "reachable_fraction": float(ev.reachable_fraction[0]),
         "normalization": normalization_record(ext, weighted, senses, weights, full),
         "designs": designs,
-        "reference": cfg.reference,
+        "reference": subject.reference,
         "workspace_points": int(ws.n),
     }
     results["polish"] = _polish_summary(ws_res, repolish)
-    note = reference_note(cfg) if reference_note is not None else None
+    note = reference_note() if reference_note is not None else None
     if note:
         results["reference_note"] = note
     if changes:
@@ -131,8 +139,10 @@ def final_results(cfg, seed: int, stages: dict, ws, evaluator, polish: int = 0, 
                                             "objective": float(_clipped_sum(lv, lo, hi, weights, senses, True)[0])}
     candidates = {"weighted_sum_optimum": (results["global_indices"], results["optimum"])}
     for j, n in enumerate(names):
-        candidates[n] = ({k: float(ev.summary[k]["mean"][j + 1]) for k in cfg.indices}, cfg.design(n))
-    bounds = {p: tuple(dv.bounds or (dv.value,) * 2) for p, dv in cfg.design_variables.items()}
+        candidates[n] = ({k: float(ev.summary[k]["mean"][j + 1]) for k in indices}, dict(named[n]))
+    # each design parameter's range: a free one its bounds, a fixed one its value
+    box = dict(zip(evaluator.free, zip(evaluator.xl.tolist(), evaluator.xu.tolist())))
+    bounds = {p: box.get(p, (v, v)) for p, v in evaluator.defaults.items()}
     pareto = {name: place_against_front(s, candidates, lo, hi, senses, evaluator, bounds)
               for name, s in stages.items() if s["kind"] == "pareto"}
     if pareto:

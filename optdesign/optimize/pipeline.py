@@ -20,6 +20,10 @@
 Each stage runs in pymoo's loop with data-only checkpoints (:mod:`.stage`),
 in this process or a worker process (:mod:`.workers`); every stage has its
 own seed, so the results depend neither on ``jobs`` nor on interruptions.
+
+The pipeline reads plain pieces (:class:`.spec.RunSpec`), never a config: the
+evaluation callable, the optimizer's and the checks' settings, the units the
+files and progress lines show, and what the results are about.
 """
 from __future__ import annotations
 
@@ -29,11 +33,11 @@ import time
 import numpy as np
 from dataclasses import dataclass, field
 
-from ..config import Config
-from ..evaluate import Evaluator, workspace_of
+from ..evaluate import Evaluator
 from ..fast import set_compile_notice
 from ..gradients import ad_available
 from ..runs import RunFolder
+from ..units import Units
 from .algorithms import build_algorithm
 from .problem import DesignProblem, extra_term, index_term, weighted_sum_term
 from .progress import Progress
@@ -46,11 +50,12 @@ from .extremes import run_extremes, scan_size
 from .prescan import best_designs, run_prescan
 from .refine import front_seeds
 from .results import finished_stage, rows_csv, stage_summary
+from .spec import RunSpec, RunSubject
 from .stage import run_stage
 from .workers import Interrupted, StagePool, StopRequest, default_jobs, warm_plots
 
 __all__ = ["Interrupted", "Progress", "Stage", "run_pipeline", "stage_plan", "stage_seed", "prescan_size", "build_algorithm",
-           "default_jobs", "PipelineResult"]
+           "default_jobs", "PipelineResult", "RunSpec", "RunSubject"]
 
 
 @dataclass
@@ -63,18 +68,19 @@ class Stage:
     literal: bool = False
 
 
-def stage_plan(cfg: Config) -> list[Stage]:
-    opt = cfg.optimizer
-    names = [k for k in cfg.indices if opt.weights.get(k, 0) > 0]
+def stage_plan(opt, senses: dict[str, str]) -> list[Stage]:
+    """The stages of a run with the optimizer's settings ``opt`` over the
+    indices ``senses`` (name -> "min" | "max", in the config's order)."""
+    names = [k for k in senses if opt.weights.get(k, 0) > 0]
     plan = [Stage("prescan", "prescan")] if prescan_size(opt) > 0 else []
     for k in names:
         plan += [Stage(f"single_{k}_min", "single", k, "min"), Stage(f"single_{k}_max", "single", k, "max")]
     if names and opt.polish > 0 and opt.extremes_starts > 0:
         plan.append(Stage("extremes", "extremes"))
     plan.append(Stage("weighted_sum", "weighted"))
-    if any(cfg.indices[k].sense == "max" for k in names):
+    if any(senses[k] == "max" for k in names):
         plan.append(Stage("weighted_sum_literal", "weighted", literal=True))
-    if len(cfg.indices) + len(opt.extra_objectives) >= 2:
+    if len(senses) + len(opt.extra_objectives) >= 2:
         plan += [Stage(f"pareto_{a}", "pareto", algorithm=a) for a in opt.pareto_algorithms]
     return plan
 
@@ -104,24 +110,23 @@ def stage_seed(seed: int, i: int) -> int:
     return int((seed * 1_000_003 + 7919 * (i + 1)) % (2 ** 32 - 1))
 
 
-def _ordered(cfg: Config, d: dict) -> dict:
-    return {k: d[k] for k in cfg.indices if k in d}
+def _ordered(names: list[str], d: dict) -> dict:
+    return {k: d[k] for k in names if k in d}
 
 
-def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluator, seeds=None):
-    """(problem, generations, algorithm factory) of a stage (``seeds``: the
-    designs a single-objective search starts with)."""
-    opt = cfg.optimizer
+def stage_problem(opt, st: Stage, lo: dict, hi: dict, evaluator: Evaluator, seeds=None):
+    """(problem, generations, algorithm factory) of a stage with the
+    optimizer's settings ``opt`` (``seeds``: the designs a single-objective
+    search starts with)."""
     if st.kind == "single":
         terms = [index_term(st.index, st.sense)]
     elif st.kind == "weighted":
-        senses = {k: s.sense for k, s in cfg.indices.items()}
         # the config's index order (not the order the single runs finished in):
         # the sum is then added up in the same order whatever ``jobs`` is
-        lo, hi = _ordered(cfg, lo), _ordered(cfg, hi)
-        terms = [weighted_sum_term(lo, hi, {k: opt.weights[k] for k in lo}, senses, literal=st.literal)]
+        lo, hi = _ordered(evaluator.index_names, lo), _ordered(evaluator.index_names, hi)
+        terms = [weighted_sum_term(lo, hi, {k: opt.weights[k] for k in lo}, evaluator.senses, literal=st.literal)]
     else:
-        terms = [index_term(k, s.sense) for k, s in cfg.indices.items()]
+        terms = [index_term(k, evaluator.senses[k]) for k in evaluator.index_names]
         terms += [extra_term(e, evaluator.extra[e].sense) for e in opt.extra_objectives]
         problem = DesignProblem(evaluator, terms)   # its first population: the pre-scan's best trade-offs
         first = front_seeds(problem, seeds, opt.pareto_population // 2)
@@ -129,52 +134,53 @@ def stage_problem(cfg: Config, st: Stage, lo: dict, hi: dict, evaluator: Evaluat
     return DesignProblem(evaluator, terms), opt.generations, lambda: build_algorithm(opt, seeds=seeds)
 
 
-def execute_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, lo: dict, hi: dict, seed: int, ws,
-                  progress: Progress | None = None, budget: dict | None = None, stop: StopRequest | None = None,
-                  evaluator: Evaluator | None = None, manifest: bool = True, seeds=None) -> dict:
-    """Run (or resume) stage ``i`` of the plan and write its files."""
-    evaluator = evaluator or Evaluator.from_config(cfg, ws)
+def execute_stage(evaluator: Evaluator, opt, units: Units, folder: RunFolder, st: Stage, i: int, lo: dict, hi: dict,
+                  seed: int, progress: Progress | None = None, budget: dict | None = None,
+                  stop: StopRequest | None = None, manifest: bool = True, seeds=None) -> dict:
+    """Run (or resume) stage ``i`` of the plan and write its files (``opt``:
+    the optimizer's settings; ``units``: how its CSV files and progress line
+    show the values)."""
     if st.kind == "extremes":
-        return _extremes_stage(cfg, folder, st, i, seed, evaluator, progress, manifest)
+        return _extremes_stage(evaluator, opt, units, folder, st, i, seed, progress, manifest)
     if st.kind == "prescan":
         prog = progress or Progress(False)
 
         def batch(k, total):
             if k == 0:   # the stage line: designs evaluated of those scanned (the corners included)
-                prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
+                prog.start(st.name, total, 0, describe=lambda r: describe_result(units, st, r) if isinstance(r, dict) else "")
             else:
                 prog.update(k, None)
         try:
-            res, rows = run_prescan(evaluator, prescan_size(cfg.optimizer), stage_seed(seed, i), on_batch=batch)
+            res, rows = run_prescan(evaluator, prescan_size(opt), stage_seed(seed, i), on_batch=batch)
             prog.update(res["evaluations"], res)
         finally:
             prog.finish()
         folder.stage_dir(st.name)
-        folder.write_text(f"stages/{st.name}/population.csv", rows_csv(_display(cfg, rows, None)))
+        folder.write_text(f"stages/{st.name}/population.csv", rows_csv(_display(units, rows, None)))
         folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
         return res
     seeds = None if seeds is None else np.asarray(seeds, dtype=float).reshape(-1, len(evaluator.free))
-    problem, gens, factory = stage_problem(cfg, st, lo, hi, evaluator, seeds)
+    problem, gens, factory = stage_problem(opt, st, lo, hi, evaluator, seeds)
     alg, history = run_stage(folder, st.name, problem, factory, gens, stage_seed(seed, i), progress or Progress(False),
-                             cfg.optimizer.checkpoint_interval, evaluator.index_names, evaluator.free,
+                             opt.checkpoint_interval, evaluator.index_names, evaluator.free,
                              evaluator.index_names + list(evaluator.extra), stop, budget,
-                             describe=lambda rec: describe_row(cfg, st, rec))
-    if progress is not None and cfg.optimizer.polish > 0:
+                             describe=lambda rec: describe_row(units, st, rec))
+    if progress is not None and opt.polish > 0:
         progress.note(f"{st.name}: polishing")
-    res = stage_summary(folder, st, alg, problem, evaluator, history, seeds, cfg.optimizer.polish,
-                        display=lambda rows, s: _display(cfg, rows, s))
+    res = stage_summary(folder, st, alg, problem, evaluator, history, seeds, opt.polish,
+                        display=lambda rows, s: _display(units, rows, s))
     folder.write_stage_result(st.name, res, manifest, *_record(st, seed, i))
     return res
 
 
-def _extremes_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, seed: int, evaluator: Evaluator,
+def _extremes_stage(evaluator: Evaluator, opt, units: Units, folder: RunFolder, st: Stage, i: int, seed: int,
                     progress: Progress | None, manifest: bool) -> dict:
     """The seed-free multi-start of the normalization extremes (:mod:`.extremes`)."""
-    opt, prog = cfg.optimizer, progress or Progress(False)
+    prog = progress or Progress(False)
     total = scan_size(opt.extremes_scan)
-    prog.start(st.name, total, 0, describe=lambda r: describe_result(cfg, st, r) if isinstance(r, dict) else "")
+    prog.start(st.name, total, 0, describe=lambda r: describe_result(units, st, r) if isinstance(r, dict) else "")
     try:
-        res = run_extremes(evaluator, [k for k in cfg.indices if opt.weights.get(k, 0) > 0], opt.extremes_starts,
+        res = run_extremes(evaluator, [k for k in evaluator.index_names if opt.weights.get(k, 0) > 0], opt.extremes_starts,
                            opt.extremes_scan, on_batch=lambda k, n: prog.update(min(k, total), None),
                            walk=opt.extremes_walk)
         prog.update(total, res)
@@ -185,10 +191,9 @@ def _extremes_stage(cfg: Config, folder: RunFolder, st: Stage, i: int, seed: int
     return res
 
 
-def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
-    """(generations, population) of a stage: its share of the run's work (the
-    pre-scan: one generation of its designs)."""
-    opt = cfg.optimizer
+def stage_work(opt, st: Stage) -> tuple[int, int]:
+    """(generations, population) of a stage with the optimizer's settings
+    ``opt``: its share of the run's work (the pre-scan: one generation of its designs)."""
     if st.kind == "prescan":
         return 1, prescan_size(opt)
     if st.kind == "extremes":
@@ -198,27 +203,29 @@ def stage_work(cfg: Config, st: Stage) -> tuple[int, int]:
     return opt.generations, opt.population
 
 
-def _display(cfg: Config, rows: list, st: Stage | None) -> list:
+def _display(units: Units, rows: list, st: Stage | None) -> list:
     """A stage's rows as its CSV files show them (units, objectives in their own sense)."""
     from ..units import display_rows
 
-    return display_rows(cfg, rows, (st.index, st.sense) if st is not None and st.kind == "single" else None)
+    return display_rows(units, rows, (st.index, st.sense) if st is not None and st.kind == "single" else None)
 
 
 def _record(st: Stage, seed: int, i: int):
     return {"seed": stage_seed(seed, i), "kind": st.kind}, ((f"{st.name}.csv",) if st.kind == "pareto" else ())
 
 
-def _stage_in_worker(cfg, path, st, i, lo, hi, seed, ws, seeds, stop=None) -> dict:
-    """One stage in a worker process; the main process records it in the manifest
-    (and shows its progress, sent through the pool's queue)."""
+def _stage_in_worker(evaluator, opt, units, path, st, i, lo, hi, seed, seeds, stop=None) -> dict:
+    """One stage in a worker process (its pieces pickled: the evaluator, whose
+    copy starts with an empty memo, the optimizer's settings and the units);
+    the main process records it in the manifest (and shows its progress,
+    sent through the pool's queue)."""
     from .workers import worker_progress
 
-    return execute_stage(cfg, RunFolder(path), st, i, lo, hi, seed, ws, progress=worker_progress(), stop=stop,
-                         manifest=False, seeds=seeds)
+    return execute_stage(evaluator, opt, units, RunFolder(path), st, i, lo, hi, seed, progress=worker_progress(),
+                         stop=stop, manifest=False, seeds=seeds)
 
 
-def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evaluator: Evaluator):
+def stage_seeds(opt, st: Stage, stages: dict, lo: dict, hi: dict, evaluator: Evaluator):
     """The designs a single-objective stage starts from: the pre-scan's best for
     its objective (a tenth of the population) and, for a weighted sum, the
     single-objective stages' answers; None for the other stages."""
@@ -227,8 +234,8 @@ def stage_seeds(cfg: Config, st: Stage, stages: dict, lo: dict, hi: dict, evalua
         return pre["designs"] if pre and pre.get("designs") else None
     if st.kind not in ("single", "weighted"):
         return None
-    problem, _, _ = stage_problem(cfg, st, lo, hi, evaluator)
-    k = seed_count(cfg.optimizer.population)
+    problem, _, _ = stage_problem(opt, st, lo, hi, evaluator)
+    k = seed_count(opt.population)
     X = best_designs(stages.get("prescan"), problem.terms[0], k, xl=evaluator.xl, xu=evaluator.xu)
     if st.kind == "weighted":
         done = [evaluator.vector(r["design"]) for r in stages.values() if r.get("kind") == "single"]
@@ -244,10 +251,11 @@ class PipelineResult:
     wall_before_s: float = 0.0     # the run's wall time in earlier invocations (a resumed run)
 
 
-def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress | None = None, pareto: bool = True,
+def run_pipeline(spec: RunSpec, folder: RunFolder, seed: int, progress: Progress | None = None, pareto: bool = True,
                  stop_after: int | None = None, jobs: int = 1, stop: StopRequest | None = None,
                  outputs: RunOutputs = NO_OUTPUTS) -> PipelineResult:
-    """Run (or resume) every stage of the config's optimization in ``folder``.
+    """Run (or resume) every stage of the optimization ``spec`` describes in
+    ``folder`` (:func:`optdesign.runner.run_in_folder` makes the spec of a config).
     ``jobs``: processes running stages at once (the weighted sums wait for the
     single-index runs); ``stop``: the caller's signal state (else one is
     installed here); ``stop_after`` (tests only): interrupt after that many
@@ -263,18 +271,16 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
     if own:
         stop.install()
     stop.deferred = True
-    plan = [s for s in stage_plan(cfg) if pareto or s.kind != "pareto"]
+    evaluator, opt, units = spec.evaluator, spec.optimizer, spec.units
+    plan = [s for s in stage_plan(opt, evaluator.senses) if pareto or s.kind != "pareto"]
     budget = {"left": stop_after}
     jobs = 1 if stop_after is not None else max(1, int(jobs))
     stages = {}
     singles = [st.name for st in plan if st.kind == "single"]
     first = [st.name for st in plan if st.kind == "prescan"]
     extremes = [st.name for st in plan if st.kind == "extremes"]
-    weighted_names = [k for k in cfg.indices if cfg.optimizer.weights.get(k, 0) > 0]
+    weighted_names = [k for k in evaluator.index_names if opt.weights.get(k, 0) > 0]
     try:
-        ws = workspace_of(cfg)
-        evaluator = Evaluator.from_config(cfg, ws)
-
         def record(st: Stage, res: dict) -> None:
             stages[st.name] = res
             if st.kind == "single":
@@ -286,13 +292,13 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             single-objective stages (folded in the plan's order) and its seeds."""
             ordered = {s.name: stages[s.name] for s in plan if s.name in stages}
             lo, hi = bounds_of(fold_extremes(ordered, upto_singles=True)[0], weighted_names)
-            return lo, hi, stage_seeds(cfg, st, ordered, lo, hi, evaluator)
+            return lo, hi, stage_seeds(opt, st, ordered, lo, hi, evaluator)
 
         todo = []   # in the plan's order; finished stages (a resumed run) are taken as they are
         for i, st in numbered(plan):
             done = finished_stage(folder, st, stage_seed(seed, i))
             todo.append((i, st)) if done is None else record(st, done)
-        progress.plan([(st.name, *stage_work(cfg, st)) for st in plan], done=list(stages))
+        progress.plan([(st.name, *stage_work(opt, st)) for st in plan], done=list(stages))
 
         def take():
             """The next stage that can start (every stage after the pre-scan, the
@@ -305,8 +311,8 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             return None
 
         def warm():
-            evaluator(evaluator.vector(cfg.initial_design())[None, :])
-            if cfg.optimizer.polish > 0:
+            evaluator(evaluator.vector(evaluator.defaults)[None, :])    # the initial design
+            if opt.polish > 0:
                 ad_available(evaluator)     # builds the CasADi derivatives once per process
 
         pool = StagePool(min(jobs - 1, len(todo) - 1), folder.path, warm=warm, events=progress.tracking)
@@ -316,12 +322,13 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             while pool.free() and (nxt := take()) is not None:
                 i, st = nxt
                 lo, hi, seeds = inputs(st)
-                pool.submit((i, st), st.name, _stage_in_worker, cfg, str(folder.path), st, i, lo, hi, seed, ws, seeds)
+                pool.submit((i, st), st.name, _stage_in_worker, evaluator, opt, units, str(folder.path), st, i, lo, hi,
+                            seed, seeds)
             nxt = take()
             if nxt is not None:
                 i, st = nxt
                 lo, hi, seeds = inputs(st)
-                record(st, execute_stage(cfg, folder, st, i, lo, hi, seed, ws, progress, budget, stop, evaluator,
+                record(st, execute_stage(evaluator, opt, units, folder, st, i, lo, hi, seed, progress, budget, stop,
                                          seeds=seeds))
             elif pool.running:
                 report_warm = report_warm or warm_plots()   # idle until a worker finishes
@@ -329,29 +336,29 @@ def run_pipeline(cfg: Config, folder: RunFolder, seed: int, progress: Progress |
             for (i, st), res in pool.finished():
                 record(st, res)
                 folder.mark_stage_done(st.name, *_record(st, seed, i))
-                progress.stage_done(st.name, describe_result(cfg, st, res))
+                progress.stage_done(st.name, describe_result(units, st, res))
             stop.check()
         pool.release()   # the workers exit while the results and the report are written
         stages = {st.name: stages[st.name] for st in plan}
         progress.phase("final results: the optimum and the extremes checked and polished ...", "final results …")
-        results = final_results(cfg, seed, stages, ws, evaluator, cfg.optimizer.polish, outputs.reference_note)
+        results = final_results(spec.subject, opt.weights, seed, stages, evaluator, opt.polish, outputs.reference_note)
         progress.phase("integrals: every reported design's indices by adaptive cubature ...", "integrals …")
         from .integrals import integrals_of_reported
 
-        integrals = integrals_of_reported(cfg, results, ws)
+        integrals = integrals_of_reported(spec.checks, evaluator, units, results)
         if integrals is not None:
             results["integrals"] = integrals
         progress.phase("certificates: every reported design over the continuous workspace ...", "certificates …")
         from ..certify.reported import certify_reported
 
-        results["certificates"] = certify_reported(evaluator, results, stages, base=cfg.checks.certificate_budget)
+        results["certificates"] = certify_reported(evaluator, results, stages, base=spec.checks.certificate_budget)
         wall = round(wall_before + time.perf_counter() - t0, 3)
         evals = sum(int(s.get("evaluations", 0)) for s in stages.values())
         results.update(wall_time_s=wall, evaluations=evals)
         folder.write_json("results.json", results)
         if outputs.write_report is not None:
             progress.phase("writing report: results.md and its plots ...", "writing report …")
-            outputs.write_report(cfg, folder, results, stages)
+            outputs.write_report(folder, results, stages)
         stop.completed = True   # from here a signal changes nothing: the manifest is about to say complete
         folder.complete(wall_time_s=wall, evaluations=evals)
         if outputs.write_html is not None:

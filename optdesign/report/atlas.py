@@ -6,7 +6,11 @@ than the optimization's sample) clipped to the workspace's true shape: a box
 is its rectangle, a cylinder its disc (the outline drawn); a region with a
 third free axis is cut through the middle of that axis, and the cut is named.
 Pose coordinates are shown in the workspace's units, indices in SI with their
-unit named."""
+unit named.
+
+An atlas reads plain pieces of a config, never the config: its design model
+(:class:`optdesign.evaluate.DesignModel`: the mechanism and its indices), its
+units (:class:`optdesign.units.Units`) and its region W (the workspace spec)."""
 from __future__ import annotations
 
 import os
@@ -15,14 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Config, ConfigError
-from ..evaluate import evaluate, mechanism_class
+from ..evaluate import DesignModel
 from ..io import atomic_write_bytes, atomic_write_text
 from ..names import check_inside
-from ..units import index_label, label, pose_display
-from ..workspace import MAX_POINTS, Workspace, WorkspaceSpec
+from ..units import Units, index_label, label, pose_display
+from ..workspace import MAX_POINTS, Workspace, WorkspaceSpec, WorkspaceTooLarge
 
-__all__ = ["AtlasMap", "atlas_map", "check_atlas_size", "write_atlas", "DEFAULT_RESOLUTION"]
+__all__ = ["AtlasMap", "atlas_map", "atlas_size", "write_atlas", "DEFAULT_RESOLUTION"]
 
 #: grid points per plotted axis
 DEFAULT_RESOLUTION = 81
@@ -51,10 +54,11 @@ def _fmt(x: float) -> str:
     return f"{x:.4g}"
 
 
-def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -> AtlasMap | None:
-    """The atlas of ``design`` (SI parameters), or None for a workspace of one point."""
-    names = tuple(mechanism_class(cfg).pose_names)
-    ws = cfg.workspace
+def atlas_map(model: DesignModel, units: Units, region: WorkspaceSpec, design: dict,
+              resolution: int = DEFAULT_RESOLUTION) -> AtlasMap | None:
+    """The atlas of ``design`` (SI parameters) over the region W, or None for a workspace of one point."""
+    names = tuple(model.mechanism.pose_names)
+    ws = region
     fixed: dict[str, float] = {}
     cut = []
     if ws.type == "cylinder":
@@ -96,17 +100,17 @@ def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -
     spec = WorkspaceSpec(type="box", axes={a: (float(X[:, i].min()), float(X[:, i].max())) for i, a in enumerate(names)},
                          sampling="grid", points_per_axis=resolution)
     with np.errstate(all="ignore"):
-        ev = evaluate(cfg, [design], Workspace(spec, names, X, None), keep_local=True)
+        ev = model.evaluate([design], Workspace(spec, names, X, None), keep_local=True)
     reach = np.asarray(ev.reachable[0], dtype=bool)
     values, singular = {}, {}
-    for k in cfg.indices:
+    for k in units.indices:
         v = np.asarray(ev.local[k][0], dtype=float)
         good = reach & np.isfinite(v)
         singular[k] = int((reach & ~np.isfinite(v)).sum())
         full = np.full(inside.shape, np.nan)
         full[inside] = np.where(good, v, np.nan)
         values[k] = full
-    disp = [pose_display(cfg, a) for a in plotted]
+    disp = [pose_display(units, a) for a in plotted]
     coords = [g * f for g, (_, f) in zip(grids, disp)]
     if ws.type == "cylinder":
         t = np.linspace(0, 2 * np.pi, 181)
@@ -114,11 +118,11 @@ def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -
         outline = ((ws.center[0] + ws.radius * np.cos(t)) * fa, (ws.center[1] + ws.radius * np.sin(t)) * fb)
     words, held = [], []
     for a, v, why in cut:
-        u, f = pose_display(cfg, a)
+        u, f = pose_display(units, a)
         words.append(f"{a} = {_fmt(v * f)} {u} ({why})")
     for a in names:
         if a not in plotted and not any(c[0] == a for c in cut):
-            u, f = pose_display(cfg, a)
+            u, f = pose_display(units, a)
             held.append(f"{a} = {_fmt(fixed[a] * f)} {u}")
     return AtlasMap(axes=list(plotted), units=[d[0] for d in disp], coords=coords, values=values, outline=outline,
                     shape=shape, cut=", ".join(words), held=", ".join(held), points=int(inside.sum()),
@@ -126,64 +130,66 @@ def atlas_map(cfg: Config, design: dict, resolution: int = DEFAULT_RESOLUTION) -
                     local={k: v[inside] for k, v in values.items()})
 
 
-def check_atlas_size(cfg: Config, resolution: int | None) -> int:
-    """The grid points per plotted axis; a ConfigError (before anything is
-    allocated) if the map would exceed the one limit on points."""
+def atlas_size(region: WorkspaceSpec, names, resolution: int | None) -> int:
+    """The grid points per plotted axis of an atlas of the region W over the
+    pose axes ``names``; WorkspaceTooLarge (before anything is allocated) if
+    the map would exceed the one limit on points."""
     n = int(resolution or DEFAULT_RESOLUTION)
-    ws = cfg.workspace
-    free = 2 if ws.type == "cylinder" else sum(1 for a in mechanism_class(cfg).pose_names if ws.axes[a][1] > ws.axes[a][0])
+    free = 2 if region.type == "cylinder" else sum(1 for a in names if region.axes[a][1] > region.axes[a][0])
     count = n ** min(free, 2)
     if count > MAX_POINTS:
-        raise ConfigError(cfg.source, "workspace" if resolution is None else "--resolution",
-                          f"the atlas would have {count:,} points; expected at most {MAX_POINTS:,}")
+        raise WorkspaceTooLarge(f"the atlas would have {count:,} points; expected at most {MAX_POINTS:,}")
     return n
 
 
-def _csv(cfg: Config, amap: AtlasMap | None, X: np.ndarray, reach: np.ndarray, local: dict) -> str:
+def _csv(model: DesignModel, units: Units, X: np.ndarray, reach: np.ndarray, local: dict) -> str:
     """local_indices.csv: the poses (workspace units), reachable (0/1), the local indices (SI)."""
-    names = mechanism_class(cfg).pose_names
-    disp = [pose_display(cfg, a) for a in names]
-    head = [label(a, u) for a, (u, _) in zip(names, disp)] + ["reachable"] + [index_label(cfg, k) for k in cfg.indices]
+    names = model.mechanism.pose_names
+    disp = [pose_display(units, a) for a in names]
+    head = [label(a, u) for a, (u, _) in zip(names, disp)] + ["reachable"] + [index_label(units, k) for k in units.indices]
     lines = [",".join(head)]
     for j in range(len(X)):
         row = [f"{X[j, i] * f:.9g}" for i, (_, f) in enumerate(disp)] + [str(int(reach[j]))]
-        row += [f"{local[k][j]:.12g}" for k in cfg.indices]
+        row += [f"{local[k][j]:.12g}" for k in units.indices]
         lines.append(",".join(row))
     return "\n".join(lines) + "\n"
 
 
-def _single_pose(cfg: Config, design: dict):
+def _single_pose(model: DesignModel, units: Units, region: WorkspaceSpec, design: dict):
     """The one pose of a workspace with no free axis: (X, reachable, local)."""
-    names = tuple(mechanism_class(cfg).pose_names)
-    X = np.array([[cfg.workspace.axes[a][0] for a in names]], dtype=float)
+    names = tuple(model.mechanism.pose_names)
+    X = np.array([[region.axes[a][0] for a in names]], dtype=float)
     spec = WorkspaceSpec(type="box", axes={a: (float(X[0, i]),) * 2 for i, a in enumerate(names)}, sampling="grid",
                          points_per_axis=1)
     with np.errstate(all="ignore"):
-        ev = evaluate(cfg, [design], Workspace(spec, names, X, None), keep_local=True)
-    return X, np.asarray(ev.reachable[0], dtype=bool), {k: np.asarray(ev.local[k][0], dtype=float) for k in cfg.indices}
+        ev = model.evaluate([design], Workspace(spec, names, X, None), keep_local=True)
+    return X, np.asarray(ev.reachable[0], dtype=bool), {k: np.asarray(ev.local[k][0], dtype=float) for k in units.indices}
 
 
-def write_atlas(cfg: Config, design: str, out_dir: str | os.PathLike, resolution: int | None = None,
-                plots: bool = True, root: str | os.PathLike | None = None) -> Path:
-    """Write ``<out_dir>/local_indices.csv`` and one map PNG per index of the
-    config's design ``design``.  With ``root``, ``out_dir`` must lie inside it
-    (symbolic links resolved); nothing is written before the atlas is computed."""
+def write_atlas(model: DesignModel, units: Units, region: WorkspaceSpec, design: dict, out_dir: str | os.PathLike,
+                resolution: int | None = None, plots: bool = True, root: str | os.PathLike | None = None,
+                config_name: str = "", design_name: str = "the design") -> Path:
+    """Write ``<out_dir>/local_indices.csv`` and one map PNG per index of
+    ``design`` (SI parameters; the plots' titles name ``config_name`` and
+    ``design_name``, e.g. "the after design").  With ``root``, ``out_dir``
+    must lie inside it (symbolic links resolved); nothing is written before
+    the atlas is computed."""
     out = Path(out_dir)
-    n = check_atlas_size(cfg, resolution)
-    amap = atlas_map(cfg, cfg.design(design), n)
+    n = atlas_size(region, model.mechanism.pose_names, resolution)
+    amap = atlas_map(model, units, region, design, n)
     if amap is None:
-        X, reach, local = _single_pose(cfg, cfg.design(design))
+        X, reach, local = _single_pose(model, units, region, design)
     else:
         X, reach, local = amap.X, amap.reachable, amap.local
     if root is not None:
         check_inside(root, out)
-        for k in cfg.indices:
+        for k in units.indices:
             check_inside(out, out / f"{k}.png")
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "local_indices.csv", _csv(cfg, amap, X, reach, local))
+    atomic_write_text(out / "local_indices.csv", _csv(model, units, X, reach, local))
     if plots and amap is not None:
         from .atlas_plot import atlas_png
 
-        for k in cfg.indices:
-            atomic_write_bytes(out / f"{k}.png", atlas_png(cfg, amap, k, f"the {design} design"))
+        for k in units.indices:
+            atomic_write_bytes(out / f"{k}.png", atlas_png(units, config_name, amap, k, design_name))
     return out

@@ -7,14 +7,14 @@ import io
 
 import numpy as np
 
-from ..config import Config
-from ..units import index_label, label
+from ..units import Units, index_label, label
 
 __all__ = ["atlas_png"]
 
 
-def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
-    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.report.atlas.AtlasMap`)."""
+def atlas_png(units: Units, name: str, amap, k: str, design_name: str) -> bytes:
+    """PNG bytes of index ``k`` of the map ``amap`` (:class:`optdesign.report.atlas.AtlasMap`) of
+    a design of the config ``name``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -22,8 +22,8 @@ def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
     import matplotlib.ticker  # noqa: F401
 
     Z = amap.values[k]
-    sense = cfg.indices[k].sense
-    ylab = index_label(cfg, k)
+    sense = units.indices[k][1]
+    ylab = index_label(units, k)
     finite = np.isfinite(Z)
     if len(amap.axes) == 1:
         fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
@@ -69,7 +69,7 @@ def atlas_png(cfg: Config, amap, k: str, design_name: str) -> bytes:
     missing = amap.unreachable + amap.singular.get(k, 0)
     where = "; ".join(w for w in (amap.held, f"cut at {amap.cut}" if amap.cut else "") if w)
     note = f"{amap.points} points inside W" + (f", {missing} blank (unreachable or singular)" if missing else "")
-    ax.set_title(f"{cfg.name}: {k} ({'maximized' if sense == 'max' else 'minimized'}) of {design_name}\n"
+    ax.set_title(f"{name}: {k} ({'maximized' if sense == 'max' else 'minimized'}) of {design_name}\n"
                  + (where + "; " if where else "") + note, fontsize=9, wrap=True)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)

@@ -3,17 +3,17 @@ over the continuous workspace (certified / refuted with the witness pose /
 unknown with the share of W proved / not supported), in the config's units."""
 from __future__ import annotations
 
-from ..config import Config
+from ..units import Units
 
 __all__ = ["certificate_lines", "refutation", "status_text"]
 
 
-def _pose_text(cfg: Config, names, pose) -> str:
+def _pose_text(units: Units, names, pose) -> str:
     from ..units import pose_display
 
     parts = []
     for a, v in zip(names, pose):
-        unit, f = pose_display(cfg, a)
+        unit, f = pose_display(units, a)
         parts.append(f"{a} = {v * f:.6g} {unit}")
     return ", ".join(parts)
 
@@ -40,7 +40,7 @@ def status_text(cert: dict | None) -> str:
     return "not supported"
 
 
-def certificate_lines(cfg: Config, results: dict) -> list[str]:
+def certificate_lines(units: Units, results: dict) -> list[str]:
     """Markdown lines (empty when the results have no certificates)."""
     certs = results.get("certificates")
     if not certs:
@@ -56,7 +56,7 @@ def certificate_lines(cfg: Config, results: dict) -> list[str]:
     for key, c in certs.items():
         detail = ""
         if c["status"] == "refuted" and c.get("witness") is not None:
-            detail = "witness " + _pose_text(cfg, c.get("axes") or (), c["witness"])
+            detail = "witness " + _pose_text(units, c.get("axes") or (), c["witness"])
         elif c["status"] == "not_supported":
             detail = c.get("reason", "")
         rows.append(f"| {key} | {status_text(c)} | {c.get('boxes', 0)} | {detail} |")

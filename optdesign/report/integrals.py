@@ -12,7 +12,7 @@ def _cell(v, e) -> str:
     return f"{fmt_g(v, 6)} ± {fmt_g(e, 2)}" if e is not None and e == e else fmt_g(v, 6)
 
 
-def integral_table(cfg, results: dict, keys=None) -> str:
+def integral_table(units, results: dict, keys=None) -> str:
     """The Markdown table of ``results["integrals"]`` (the designs of ``keys``, default all)."""
     from ..units import index_label
 
@@ -21,14 +21,14 @@ def integral_table(cfg, results: dict, keys=None) -> str:
     for key, r in rec["designs"].items():
         if keys is not None and key not in keys:
             continue
-        for k in cfg.indices:
+        for k in units.indices:
             q, i = r["quadrature"][k], r["integral"][k]
             val = "unbounded" if i["status"] == "unbounded" else _cell(i["mean"], i["error"])
-            rows.append(f"| {key} | {index_label(cfg, k)} | {_cell(q['mean'], q['error'])} | {val} | {i['status'].replace('_', ' ')} |")
+            rows.append(f"| {key} | {index_label(units, k)} | {_cell(q['mean'], q['error'])} | {val} | {i['status'].replace('_', ' ')} |")
     return "\n".join(rows)
 
 
-def integral_lines(cfg, results: dict) -> list[str]:
+def integral_lines(units, results: dict) -> list[str]:
     """The results.md section (empty without ``integrals``)."""
     rec = results.get("integrals")
     if not rec:
@@ -40,9 +40,9 @@ def integral_lines(cfg, results: dict) -> list[str]:
            "`unbounded`: the integrand is not bounded on W (the design is singular inside W): its mean over W is "
            "not finite, whatever a fixed rule gives; `not converged`: the tolerance was not reached within the "
            "budget (the value and its error are the last estimate).", "",
-           integral_table(cfg, results)]
+           integral_table(units, results)]
     bad = sorted({key for key, r in rec["designs"].items()
-                  if any(r["integral"][k]["status"] == "unbounded" for k in cfg.indices)})
+                  if any(r["integral"][k]["status"] == "unbounded" for k in units.indices)})
     if bad:
         out += ["", "Singular inside W (an unbounded integral): " + ", ".join(f"`{b}`" for b in bad)
                 + ". Their quadrature values are artifacts of the points, not means over W."]

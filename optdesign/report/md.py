@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config import Config
 from ..runs import RunFolder
+from ..units import Units
 
 __all__ = ["write_report", "parameter_table", "index_table", "reference_table", "format_results", "optimum_yaml",
            "extremes_lines", "optimality_lines"]
@@ -25,30 +25,30 @@ def _md(headers, rows) -> str:
     return table(headers, rows)
 
 
-def _unit(cfg: Config, k: str) -> str:
+def _unit(units: Units, k: str) -> str:
     from ..units import variable_unit
 
-    return variable_unit(cfg, k)
+    return variable_unit(units, k)
 
 
-def _index_unit(cfg: Config, k: str) -> str:
+def _index_unit(units: Units, k: str) -> str:
     from ..units import MIXED, index_unit
 
-    return index_unit(cfg, k) or MIXED
+    return index_unit(units, k) or MIXED
 
 
 def _named(results: dict) -> list[str]:
     return [n for n in results["designs"] if n != "initial"] or list(results["designs"])
 
 
-def parameter_table(cfg: Config, results: dict) -> str:
+def parameter_table(units: Units, results: dict) -> str:
     """The design parameters in the config's units: the config's named designs,
     the optimum and the bounds."""
     names = _named(results)
     headers = ["parameter", "unit"] + [f"{n} (config)" for n in names] + ["optimum", "bounds"]
     rows = []
-    for k, dv in cfg.design_variables.items():
-        row = [k, _unit(cfg, k)]
+    for k, dv in units.variables.items():
+        row = [k, _unit(units, k)]
         for n in names:
             row.append(_f(dv.display(results["designs"][n]["parameters"][k])))
         row.append(_f(dv.display(results["optimum"][k])))
@@ -64,7 +64,7 @@ def _factor(sense: str, a, b) -> str:
     return f"{(a / b if sense == 'min' else b / a):.3f}x"
 
 
-def index_table(cfg: Config, results: dict) -> str:
+def index_table(units: Units, results: dict) -> str:
     """Global indices (means over W) of the named designs and the optimum, with
     the improvement of the optimum on the first named design."""
     d = results["designs"]
@@ -75,18 +75,18 @@ def index_table(cfg: Config, results: dict) -> str:
     if base:
         headers.append(f"improvement on {base}")
     rows = []
-    for k, spec in cfg.indices.items():
+    for k, (_, sense) in units.indices.items():
         o = results["global_indices"][k]
-        row = [k, _index_unit(cfg, k), spec.sense] + [_f(d[n]["global_indices"][k]["mean"]) for n in names] + [_f(o)]
+        row = [k, _index_unit(units, k), sense] + [_f(d[n]["global_indices"][k]["mean"]) for n in names] + [_f(o)]
         if err:
             row.append(f"{err[k]:.2g}" if err.get(k) is not None and err[k] == err[k] else "-")
         if base:
-            row.append(_factor(spec.sense, d[base]["global_indices"][k]["mean"], o))
+            row.append(_factor(sense, d[base]["global_indices"][k]["mean"], o))
         rows.append(row)
     return _md(headers, rows)
 
 
-def reference_table(cfg: Config, results: dict) -> str:
+def reference_table(units: Units, results: dict) -> str:
     """The named designs' indices beside the config's ``reference:`` values
     ("" if the config has none): ours, the reference, the relative difference,
     and the improvement from the first referenced design to the second."""
@@ -102,14 +102,14 @@ def reference_table(cfg: Config, results: dict) -> str:
     if pair:
         headers += ["improvement (ours)", "improvement (reference)"]
     rows = []
-    for k, spec in cfg.indices.items():
+    for k, (_, sense) in units.indices.items():
         row = [k]
         for n in have:
             v, p = d[n]["global_indices"][k]["mean"], ref[n].get(k)
             row += [_f(v), _f(p), f"{100 * (v - p) / p:+.2f}%" if p else "-"]
         if pair:
             a, b = (d[n]["global_indices"][k]["mean"] for n in pair)
-            row += [_factor(spec.sense, a, b), _factor(spec.sense, ref[pair[0]].get(k), ref[pair[1]].get(k))]
+            row += [_factor(sense, a, b), _factor(sense, ref[pair[0]].get(k), ref[pair[1]].get(k))]
         rows.append(row)
     return _md(headers, rows)
 
@@ -121,38 +121,38 @@ def _objective(x) -> str:
     return _f(x)
 
 
-def format_results(cfg: Config, results: dict) -> str:
+def format_results(units: Units, results: dict) -> str:
     """The whole Markdown report of a run (the config's units, the index's own sense)."""
     from ..units import design_text, index_text
 
-    lines = [f"# {cfg.name}: optimization results", ""]
-    lines.append(f"Mechanism `{cfg.mechanism}`, seed {results['seed']}, {results['workspace_points']} workspace points, "
+    lines = [f"# {results['config']}: optimization results", ""]
+    lines.append(f"Mechanism `{results['mechanism']}`, seed {results['seed']}, {results['workspace_points']} workspace points, "
                  f"{results.get('evaluations', '?')} design evaluations, wall time {results.get('wall_time_s', '?')} s.")
     lines.append("")
     from .certificates import certificate_lines, status_text
 
     certs = results.get("certificates") or {}
     cert = f" ({status_text(certs['optimum'])} over W)" if "optimum" in certs else ""
-    lines.append(f"**Optimum** (weighted sum): {design_text(cfg, results['optimum']) or 'no free variable'}{cert}.  ")
+    lines.append(f"**Optimum** (weighted sum): {design_text(units, results['optimum']) or 'no free variable'}{cert}.  ")
     lines.append("**Global indices** (means over W): "
-                 + ", ".join(index_text(cfg, k, v) for k, v in results["global_indices"].items() if k in cfg.indices)
+                 + ", ".join(index_text(units, k, v) for k, v in results["global_indices"].items() if k in units.indices)
                  + ".  ")
     lines.append("The optimum as a named design, ready to paste under a config's `designs:`: `optimum.yaml`.")
     lines.append("")
     lines.append("## Design parameters")
     lines.append("")
-    lines.append(parameter_table(cfg, results))
+    lines.append(parameter_table(units, results))
     lines.append("")
     lines.append("## Global indices (means over W)")
     lines.append("")
-    lines.append(index_table(cfg, results))
+    lines.append(index_table(units, results))
     lines.append("")
     lines.append("Units: SI ([–]: dimensionless). Improvement: the named design's value divided by the optimum's "
                  "for an index to be minimized, the optimum's divided by the named design's for one to be maximized.")
     if results.get("global_indices_error"):
         lines.append(f"±: the error estimate of the optimum's mean against the integral over W "
                      f"({results.get('error_method', 'see docs/config.md')}).")
-    ref = reference_table(cfg, results)
+    ref = reference_table(units, results)
     if ref:
         lines.append("")
         lines.append("### Beside the reference values")
@@ -166,22 +166,22 @@ def format_results(cfg: Config, results: dict) -> str:
     lines.append("")
     lines.append("## Normalization")
     lines.append("")
-    rows = [[k, _index_unit(cfg, k) if k in cfg.indices else "-", v["sense"], _f(v["min"]), _f(v["max"]),
+    rows = [[k, _index_unit(units, k) if k in units.indices else "-", v["sense"], _f(v["min"]), _f(v["max"]),
              _f(v["weight"], 2)] for k, v in results["normalization"].items()]
     lines.append(_md(["index", "unit", "sense", "min over bounds", "max over bounds", "weight"], rows))
     lines.append("")
-    lines += _objective_lines(cfg, results)
-    lines += extremes_lines(cfg, results) + optimality_lines(cfg, results)
-    lines += _pareto_lines(cfg, results)
-    lines += certificate_lines(cfg, results)
+    lines += _objective_lines(units, results)
+    lines += extremes_lines(units, results) + optimality_lines(results)
+    lines += _pareto_lines(results)
+    lines += certificate_lines(units, results)
     from .integrals import integral_lines
 
-    lines += integral_lines(cfg, results)
+    lines += integral_lines(units, results)
     lines.append("")
     return "\n".join(lines)
 
 
-def _objective_lines(cfg: Config, results: dict) -> list[str]:
+def _objective_lines(units: Units, results: dict) -> list[str]:
     """The weighted-sum objective f at the optimum and the named designs."""
     from ..units import design_text
 
@@ -197,7 +197,7 @@ def _objective_lines(cfg: Config, results: dict) -> list[str]:
                      f"{_f(results['objective_paper_literal'])}.")
     if "paper_literal_optimum" in results:
         pl = results["paper_literal_optimum"]
-        lines.append(f"- Minimizing the sum without the flip instead gives {design_text(cfg, pl['design'])} "
+        lines.append(f"- Minimizing the sum without the flip instead gives {design_text(units, pl['design'])} "
                      f"(objective {_f(pl['objective'])}): it rewards a low value of a maximized index, "
                      "which is why that term is flipped.")
     for n, dd in results["designs"].items():
@@ -209,7 +209,7 @@ def _objective_lines(cfg: Config, results: dict) -> list[str]:
     return lines
 
 
-def _pareto_lines(cfg: Config, results: dict) -> list[str]:
+def _pareto_lines(results: dict) -> list[str]:
     if not results.get("pareto"):
         return []
     lines = ["", "## Pareto fronts", ""]
@@ -231,31 +231,31 @@ def _pareto_lines(cfg: Config, results: dict) -> list[str]:
     return lines
 
 
-def optimum_yaml(cfg: Config, results: dict, run_name: str = "") -> str:
+def optimum_yaml(units: Units, results: dict, run_name: str = "") -> str:
     """The optimum as a named design in the config's units, ready to paste
     under a config's ``designs:`` (every design variable, its unit in a comment)."""
     from ..units import DIMENSIONLESS
 
-    width = max(len(k) for k in cfg.design_variables)
-    lines = [f"# The weighted-sum optimum of {cfg.name}" + (f" (run {run_name}" if run_name else "")
+    width = max(len(k) for k in units.variables)
+    lines = [f"# The weighted-sum optimum of {results['config']}" + (f" (run {run_name}" if run_name else "")
              + (f", seed {results['seed']})" if run_name else f" (seed {results['seed']})") + ",",
              "# in the config's units: paste it under `designs:` of a config of mechanism "
-             f"{cfg.mechanism} with the same design variables.",
+             f"{results['mechanism']} with the same design variables.",
              "optimum:"]
-    for k, dv in cfg.design_variables.items():
-        u = _unit(cfg, k)
+    for k, dv in units.variables.items():
+        u = _unit(units, k)
         note = ("" if u == DIMENSIONLESS else u) + ("" if dv.free else (", " if u != DIMENSIONLESS else "") + "fixed")
         lines.append(f"  {k + ':':<{width + 1}} {dv.display(results['optimum'][k]):.12g}" + (f"   # {note}" if note else ""))
     return "\n".join(lines) + "\n"
 
 
-def _design_text(cfg: Config, design: dict) -> str:
+def _design_text(units: Units, design: dict) -> str:
     from ..units import design_text
 
-    return design_text(cfg, design)
+    return design_text(units, design)
 
 
-def extremes_lines(cfg: Config, results: dict) -> list[str]:
+def extremes_lines(units: Units, results: dict) -> list[str]:
     """Where each extreme of the normalization was found (design, stage, how),
     and whether a later stage moved one (then every normalized objective of
     the report is recomputed from the final extremes)."""
@@ -267,7 +267,7 @@ def extremes_lines(cfg: Config, results: dict) -> list[str]:
     for k, v in norm.items():
         for b in ("min", "max"):
             if f"{b}_found_by" in v:
-                row = [k, b, _f(v[b]), v[f"{b}_found_by"], v.get(f"{b}_stage", ""), _design_text(cfg, v[f"{b}_design"])]
+                row = [k, b, _f(v[b]), v[f"{b}_found_by"], v.get(f"{b}_stage", ""), _design_text(units, v[f"{b}_design"])]
                 if certs:
                     row.append(status_text(certs.get(f"{k}.{b}")))
                 rows.append(row)
@@ -290,7 +290,7 @@ def extremes_lines(cfg: Config, results: dict) -> list[str]:
     return out
 
 
-def optimality_lines(cfg: Config, results: dict) -> list[str]:
+def optimality_lines(results: dict) -> list[str]:
     """The polish of the weighted-sum optimum: the improvement over the GA and
     the first-order optimality measure with the active bounds and constraints."""
     p = results.get("polish")
@@ -330,14 +330,16 @@ def optimality_lines(cfg: Config, results: dict) -> list[str]:
     return out
 
 
-def write_report(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
+def write_report(units: Units, folder: RunFolder, results: dict, stages: dict) -> None:
+    """results.md, optimum.yaml, the top-level CSV files and the plots of a
+    finished run (``units``: how the config shows its quantities)."""
     from .png import plots as _plots
 
-    folder.write_text("results.md", format_results(cfg, results))
-    folder.write_text("optimum.yaml", optimum_yaml(cfg, results, folder.path.name))
+    folder.write_text("results.md", format_results(units, results))
+    folder.write_text("optimum.yaml", optimum_yaml(units, results, folder.path.name))
     _history_csv(folder, stages)
     try:
-        _plots(cfg, folder, results, stages)
+        _plots(units, folder, results, stages)
     except Exception as exc:  # noqa: BLE001 - a plot must never lose a finished run
         folder.write_text("plots-error.txt", f"{type(exc).__name__}: {exc}\n")
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Config
 from ..runs import RunFolder
+from ..units import Units
 
 __all__ = ["plots", "convergence_figure", "pareto_figure", "ROUND_OFF"]
 
@@ -27,40 +27,40 @@ def _read_csv(path: Path) -> list[dict]:
         return [{strip_unit(k): v for k, v in r.items()} for r in csv.DictReader(fh)]
 
 
-def _own_sense(cfg: Config, term: str, values) -> np.ndarray:
+def _own_sense(units: Units, term: str, values) -> np.ndarray:
     """A minimized objective term's values in the objective's own sense and shown unit."""
     from ..units import objective_unit
 
     v = np.asarray(values, dtype=float)
-    return (-v if term.startswith("-") else v) * objective_unit(cfg, term.lstrip("-"))[1]
+    return (-v if term.startswith("-") else v) * objective_unit(units, term.lstrip("-"))[1]
 
 
-def _objective_axis(cfg: Config, term: str) -> str:
+def _objective_axis(units: Units, term: str) -> str:
     from ..units import index_label
 
     name = term.lstrip("-")
-    sense = cfg.indices[name].sense if name in cfg.indices else ("max" if term.startswith("-") else "min")
-    return f"{index_label(cfg, name)}, {'maximized' if sense == 'max' else 'minimized'}"
+    sense = units.indices[name][1] if name in units.indices else ("max" if term.startswith("-") else "min")
+    return f"{index_label(units, name)}, {'maximized' if sense == 'max' else 'minimized'}"
 
 
-def plots(cfg: Config, folder: RunFolder, results: dict, stages: dict) -> None:
+def plots(units: Units, folder: RunFolder, results: dict, stages: dict) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = convergence_figure(cfg, _read_csv(folder.path / "stages" / "weighted_sum" / "history.csv"))
+    fig = convergence_figure(results["config"], _read_csv(folder.path / "stages" / "weighted_sum" / "history.csv"))
     if fig is not None:
         _save(fig, folder.path / "convergence.png")
         plt.close(fig)
-    fig = pareto_figure(cfg, results, stages)
+    fig = pareto_figure(units, results, stages)
     if fig is not None:
         _save(fig, folder.path / "pareto.png")
         plt.close(fig)
 
 
-def convergence_figure(cfg: Config, hist: list[dict]):
-    """The weighted sum f per generation (best and population mean) on a
+def convergence_figure(name: str, hist: list[dict]):
+    """The weighted sum f per generation (``name``: the config's, in the title) (best and population mean) on a
     logarithmic axis: f falls by decades towards its best, 0, and a linear
     axis shows all but the first generations flat at 0.  Values within
     round-off of 0 are 0, drawn on the linear band of a symlog axis (said in
@@ -81,7 +81,7 @@ def convergence_figure(cfg: Config, hist: list[dict]):
     ax.plot(g, best, label="best", marker="o", ms=3, clip_on=False)
     ax.plot(g, mean, label="population mean", alpha=0.7, marker="o", ms=3, clip_on=False)
     pos = vals[np.abs(vals) >= ROUND_OFF]
-    title = f"{cfg.name}: convergence of the weighted sum (minimized)"
+    title = f"{name}: convergence of the weighted sum (minimized)"
     scale = "linear"
     if len(pos) and not zero and np.all(vals > 0):   # values shown as 0 cannot sit on a log axis
         ax.set_yscale("log")
@@ -101,7 +101,7 @@ def convergence_figure(cfg: Config, hist: list[dict]):
     return fig
 
 
-def pareto_figure(cfg: Config, results: dict, stages: dict):
+def pareto_figure(units: Units, results: dict, stages: dict):
     """The Pareto fronts, each pair of objectives in its own sense (None
     without a front).  Markers are never cut at the frame (clip_on=False)."""
     import matplotlib.pyplot as plt
@@ -123,7 +123,7 @@ def pareto_figure(cfg: Config, results: dict, stages: dict):
                                                                     ("^", "tab:purple"), ("v", "tab:brown")]):
         marks[n] = (mk, col, f"{n} (config)")
     sizes = {name: len(s["front"]) for name, s in fronts.items()}
-    own = {name: np.array([[_own_sense(cfg, t, r[f"objective_{t}"]) for t in terms] for r in s["front"]])
+    own = {name: np.array([[_own_sense(units, t, r[f"objective_{t}"]) for t in terms] for r in s["front"]])
            for name, s in fronts.items()}
     points = {}   # the weighted-sum optimum and the named designs, in the objectives' own sense
     for alg, p in results.get("pareto", {}).items():
@@ -131,7 +131,7 @@ def pareto_figure(cfg: Config, results: dict, stages: dict):
         for n, pl in p["placement"].items():
             if n in marks:
                 v = np.array(pl["normalized_objectives"]) * (hi - lo) + lo
-                points[n] = np.array([_own_sense(cfg, t, v[k]) for k, t in enumerate(terms)])
+                points[n] = np.array([_own_sense(units, t, v[k]) for k, t in enumerate(terms)])
         break
     for ax, (i, j) in zip(axes.flat, pairs):
         for n_front, (name, F) in enumerate(own.items()):
@@ -165,8 +165,8 @@ def pareto_figure(cfg: Config, results: dict, stages: dict):
                        c=col if inside else "none", edgecolors=col, linewidths=1.5)
         ax.set_xlim(*lims[0])
         ax.set_ylim(*lims[1])
-        ax.set_xlabel(_objective_axis(cfg, terms[i]), fontsize=9)
-        ax.set_ylabel(_objective_axis(cfg, terms[j]), fontsize=9)
+        ax.set_xlabel(_objective_axis(units, terms[i]), fontsize=9)
+        ax.set_ylabel(_objective_axis(units, terms[j]), fontsize=9)
         ax.tick_params(labelsize=8)
         ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(5))
         ax.ticklabel_format(axis="both", style="sci", scilimits=(-3, 4), useOffset=False)
@@ -177,7 +177,7 @@ def pareto_figure(cfg: Config, results: dict, stages: dict):
     fig.legend(uniq.values(), uniq.keys(), fontsize=8, loc="outside lower center",
                ncol=max(1, min(len(uniq), int(ncol * 4.8 * 15 // longest))))
     one = [n for n, k in sizes.items() if k == 1]
-    title = f"{cfg.name}: Pareto fronts, each objective in its own sense"
+    title = f"{results['config']}: Pareto fronts, each objective in its own sense"
     if one:
         title += f"\n{', '.join(one)}: the front collapsed to ONE design (no trade-off found)"
     fig.suptitle(title, fontsize=10)

@@ -304,7 +304,7 @@ def _quantity_labels(rows: Sequence[dict], qs: Sequence[str]) -> dict[str, str]:
         seen.add(key)
         for q in qs:
             if q in cfg.indices:
-                names = units[q].setdefault(index_unit(cfg, q) or "", [])
+                names = units[q].setdefault(index_unit(cfg.units(), q) or "", [])
                 if str(r.get("config")) not in names:
                     names.append(str(r.get("config")))
     for q, by in units.items():

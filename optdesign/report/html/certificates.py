@@ -27,7 +27,7 @@ def _witness(run: RunData, c: dict) -> str:
         return esc(c.get("reason", "")) if c["status"] == "not_supported" else ""
     parts = []
     for a, v in zip(c.get("axes") or (), c["witness"]):
-        unit, f = pose_display(run.cfg, a)
+        unit, f = pose_display(run.units, a)
         parts.append(f"{esc(a)}&nbsp;=&nbsp;{v * f:.6g}&nbsp;{esc(unit)}")
     return ", ".join(parts)
 

@@ -46,7 +46,7 @@ def _runs_table(runs, labels) -> str:
     rows = []
     for lab, r in zip(labels, runs):
         m = r.manifest
-        rows.append([esc(lab), esc(r.cfg.name), f"<code>{esc(r.cfg.mechanism)}</code>", esc(m.get("seed", "-")),
+        rows.append([esc(lab), esc(r.name), f"<code>{esc(r.mechanism)}</code>", esc(m.get("seed", "-")),
                      objective_text(r.results.get("objective")), esc(m.get("evaluations", "-")),
                      f"{esc(m.get('wall_time_s', '-'))} s", esc(m.get("end_time", "-"))])
     return html_table(["run", "config", "mechanism", "seed", "f at the optimum", "design evaluations", "wall time",
@@ -86,18 +86,18 @@ def _side_by_side(names, runs, labels, unit_of, value_of, extra_col=None) -> str
 
 
 def _optimum(r: RunData, k: str):
-    dv = r.cfg.design_variables.get(k)
+    dv = r.units.variables.get(k)
     v = r.results["optimum"].get(k)
     return dv.display(v) if dv is not None and isinstance(v, (int, float)) else None
 
 
 def _index(r: RunData, k: str):
     v = r.results["global_indices"].get(k)
-    return v if k in r.cfg.indices and isinstance(v, (int, float)) else None
+    return v if k in r.units.indices and isinstance(v, (int, float)) else None
 
 
 def _senses(runs, k) -> str:
-    s = {r.cfg.indices[k].sense for r in runs if k in r.cfg.indices}
+    s = {r.units.indices[k][1] for r in runs if k in r.units.indices}
     return esc("/".join(sorted(s)))
 
 
@@ -106,13 +106,13 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
     if not fronts:
         return None, "No run has a Pareto front."
     common = [o for o in fronts[0][2].objectives if all(o in f.objectives for _, _, f in fronts)]
-    units = {o: {objective_unit(r.cfg, o)[0] for _, r, _ in fronts} for o in common}
+    units = {o: {objective_unit(r.units, o)[0] for _, r, _ in fronts} for o in common}
     common = [o for o in common if len(units[o]) == 1]
     if len(common) < 2:
         return None, "The runs' fronts share fewer than two objectives (with the same unit): nothing to overlay."
     fig = go.Figure()
     r0 = fronts[0][1]
-    dims_label = {o: esc(index_label(r0.cfg, o)) for o in common}
+    dims_label = {o: esc(index_label(r0.units, o)) for o in common}
     dims = [dims_label[o] for o in common]
     for j, (lab, r, f) in enumerate(fronts):
         vals = _front_values(r, f)
@@ -179,13 +179,13 @@ def build_compare(runs: list[RunData]) -> str:
     page.section("runs", "Runs")
     page.html(_runs_table(runs, labels))
     page.section("optima", "Optima")
-    dvs = _union([list(r.cfg.design_variables) for r in runs])
-    page.html(_side_by_side(dvs, runs, labels, lambda r, k: variable_unit(r.cfg, k) if k in r.cfg.design_variables else None,
+    dvs = _union([list(r.units.variables) for r in runs])
+    page.html(_side_by_side(dvs, runs, labels, lambda r, k: variable_unit(r.units, k) if k in r.units.variables else None,
                             _optimum))
     page.html("<p class=note>Design parameters of each run's weighted-sum optimum, in its config's units.</p>")
     page.section("indices", "Global indices")
-    idx = _union([list(r.cfg.indices) for r in runs])
-    page.html(_side_by_side(idx, runs, labels, lambda r, k: index_unit(r.cfg, k) if k in r.cfg.indices else None, _index,
+    idx = _union([list(r.units.indices) for r in runs])
+    page.html(_side_by_side(idx, runs, labels, lambda r, k: index_unit(r.units, k) if k in r.units.indices else None, _index,
                             extra_col=("sense", _senses)))
     page.html("<p class=note>Means over each run's own workspace at its optimum (SI; [–]: dimensionless). Runs with "
               "different workspaces or index conventions are not on one scale.</p>")

@@ -12,7 +12,6 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
-from ...evaluate import mechanism_class
 from .atlas import AtlasMap
 from .rundata import Front, RunData
 from ...units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
@@ -60,40 +59,39 @@ def fmt(x, digits: int = 5) -> str:
 
 
 def objective_sense(run: RunData, name: str) -> str:
-    if name in run.cfg.indices:
-        return run.cfg.indices[name].sense
-    e = mechanism_class(run.cfg).extra_objectives.get(name)
-    return e.sense if e is not None else "min"
+    if name in run.units.indices:
+        return run.units.indices[name][1]
+    e = run.units.extras.get(name)
+    return e[2] if e is not None else "min"
 
 
 def _obj_label(run: RunData, name: str, short: bool = False) -> str:
-    s = index_label(run.cfg, name)
+    s = index_label(run.units, name)
     if not short:
         s += " ↑ max" if objective_sense(run, name) == "max" else " ↓ min"
     return esc(s)
 
 
 def _var_label(run: RunData, k: str) -> str:
-    return esc(label(k, variable_unit(run.cfg, k)))
+    return esc(label(k, variable_unit(run.units, k)))
 
 
 def hover_lines(run: RunData, designs: dict, values: dict, i: int, title: str) -> str:
     """One design's hover text: free parameters (config units), then the
     objectives and indices (SI, own sense)."""
-    cfg = run.cfg
     out = [f"<b>{esc(title)}</b>"]
-    for k, dv in cfg.design_variables.items():
+    for k, dv in run.units.variables.items():
         if dv.free and k in designs:
-            out.append(f"{esc(k)} = {fmt(dv.display(designs[k][i]))} {esc(variable_unit(cfg, k))}")
+            out.append(f"{esc(k)} = {fmt(dv.display(designs[k][i]))} {esc(variable_unit(run.units, k))}")
     for k, v in values.items():
-        u, _ = objective_unit(cfg, k)
+        u, _ = objective_unit(run.units, k)
         out.append(f"{esc(k)} = {fmt(v[i])}" + (f" {esc(u)}" if u and u != DIMENSIONLESS else ""))
     return "<br>".join(out)
 
 
 def _extra_value(run: RunData, name: str, design: dict) -> float:
-    fn = mechanism_class(run.cfg).extra_objectives[name].func
-    full = {k: np.array([float(design.get(k, dv.value))]) for k, dv in run.cfg.design_variables.items()}
+    fn = run.model.mechanism.extra_objectives[name].func
+    full = {k: np.array([float(design.get(k, v))]) for k, v in run.model.defaults.items()}
     return float(np.asarray(fn(full), dtype=float)[0])
 
 
@@ -112,11 +110,11 @@ def design_points(run: RunData, objectives: list[str]) -> list[tuple[str, dict, 
     for name, params, vals in pts:
         ov = {}
         for o in objectives:
-            if o in run.cfg.indices:
+            if o in run.units.indices:
                 ov[o] = vals.get(o, math.nan)
             else:
                 try:
-                    ov[o] = _extra_value(run, o, params) * objective_unit(run.cfg, o)[1]
+                    ov[o] = _extra_value(run, o, params) * objective_unit(run.units, o)[1]
                 except (KeyError, ValueError, TypeError):
                     ov[o] = math.nan
         out.append((name, params, ov))
@@ -127,7 +125,7 @@ def _front_values(run: RunData, front: Front) -> dict[str, np.ndarray]:
     """Objectives (own sense, display units) then the other global indices of a front."""
     vals = {}
     for o, v in front.objectives.items():
-        vals[o] = v * objective_unit(run.cfg, o)[1]
+        vals[o] = v * objective_unit(run.units, o)[1]
     for k, v in front.indices.items():
         vals.setdefault(k, v)
     return vals
@@ -142,7 +140,6 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
     """One grid of small plots for the single-objective and weighted-sum
     stages (best and population mean per generation), one figure per Pareto
     stage (the best of each objective and the size of the front)."""
-    cfg = run.cfg
     figs = []
     ga = [s for s in run.history if run.stages.get(s, {}).get("kind") in ("single", "weighted")]
     if ga:
@@ -165,14 +162,14 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
             if not rows:       # a stage that recorded no generation (its history is empty): an empty panel
                 continue
             g = _col(rows, "generation")
-            if r.get("kind") == "single" and r.get("index") in cfg.indices:
+            if r.get("kind") == "single" and r.get("index") in run.units.indices:
                 k = r["index"]
                 flip = -1.0 if r.get("sense") == "max" else 1.0
                 best = _col(rows, f"best_{k}") if f"best_{k}" in rows[0] else flip * _col(rows, "best_objective")
                 # the history shows the population mean in the index's own sense (mean_<k>);
                 # a folder of the previous format has the minimized objective's mean
                 mean = _col(rows, f"mean_{k}") if f"mean_{k}" in rows[0] else flip * _col(rows, "mean_objective")
-                ylab = index_label(cfg, k)
+                ylab = index_label(run.units, k)
             else:
                 best, mean = _col(rows, "best_objective"), _col(rows, "mean_objective")
                 ylab = "f [–]"
@@ -214,10 +211,10 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
             else:
                 k = t.lstrip("-")
                 if f"best_{t}" in rows[0]:   # the previous format: the minimized objective, SI
-                    y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(cfg, k)[1]
+                    y = _col(rows, f"best_{t}") * (-1.0 if t.startswith("-") else 1.0) * objective_unit(run.units, k)[1]
                 else:                        # own sense, shown units
                     y = _col(rows, f"best_{k}")
-                ylab = index_label(cfg, k)
+                ylab = index_label(run.units, k)
             fig.add_trace(go.Scatter(x=g, y=y, mode="lines", showlegend=False, line=dict(color=COLORS[i % len(COLORS)]),
                                      hovertemplate="generation %{x}<br>%{y:.5g}<extra></extra>"), row=row, col=col)
             fig.update_yaxes(title_text=esc(ylab), row=row, col=col)
@@ -295,9 +292,8 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
     """Parallel coordinates of the front: its free design variables (config
     units, axes spanning the bounds) and objectives (own sense, axes spanning the
     front's own range; for a single design, the index's range over the bounds)."""
-    cfg = run.cfg
     dims = []
-    for k, dv in cfg.design_variables.items():
+    for k, dv in run.units.variables.items():
         if not dv.free or k not in front.designs:
             continue
         lo, hi = dv.display(dv.bounds[0]), dv.display(dv.bounds[1])
@@ -338,12 +334,11 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
 
 # --------------------------------------------------------------------------- atlas
 def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted-sum optimum") -> list[go.Figure]:
-    cfg = run.cfg
     figs = []
     where = "; ".join(w for w in (amap.held, (f"slice through the centre: {amap.cut}" if amap.cut else "")) if w)
     for k, Z in amap.values.items():
-        ul = index_label(cfg, k)
-        sense = cfg.indices[k].sense
+        ul = index_label(run.units, k)
+        sense = run.units.indices[k][1]
         title = f"{esc(k)} ({'max' if sense == 'max' else 'min'}) of {esc(design_name)}"
         sub = esc(where) if where else ""
         if len(amap.axes) == 1:

@@ -22,20 +22,20 @@ REPORT_NAME = "report.html"
 
 
 def _header(run: RunData) -> str:
-    cfg, r, m = run.cfg, run.results, run.manifest
-    desc = cfg.raw.get("description")
-    bits = [f"mechanism <code>{esc(cfg.mechanism)}</code>", f"seed {esc(r.get('seed', m.get('seed')))}",
+    r, m = run.results, run.manifest
+    desc = run.description
+    bits = [f"mechanism <code>{esc(run.mechanism)}</code>", f"seed {esc(r.get('seed', m.get('seed')))}",
             f"{esc(r.get('workspace_points', '?'))} workspace points",
             f"{esc(m.get('evaluations', r.get('evaluations', '?')))} design evaluations",
             f"wall time {esc(m.get('wall_time_s', '?'))} s"]
     if m.get("end_time"):
         bits.append(f"finished {esc(m['end_time'])}")
-    opt = ", ".join(f"{esc(k)} = {fmt(dv.display(r['optimum'][k]), 4)} {esc(variable_unit(cfg, k))}"
-                    for k, dv in cfg.design_variables.items() if dv.free)
-    idx = ", ".join(f"{esc(k)} = {fmt(v, 4)}" + (f" {esc(u)}" if (u := index_unit(cfg, k)) and u != "–" else "")
-                    for k, v in r["global_indices"].items() if k in cfg.indices)
+    opt = ", ".join(f"{esc(k)} = {fmt(dv.display(r['optimum'][k]), 4)} {esc(variable_unit(run.units, k))}"
+                    for k, dv in run.units.variables.items() if dv.free)
+    idx = ", ".join(f"{esc(k)} = {fmt(v, 4)}" + (f" {esc(u)}" if (u := index_unit(run.units, k)) and u != "–" else "")
+                    for k, v in r["global_indices"].items() if k in run.units.indices)
     return ("<header>"
-            f"<h1>{esc(cfg.name)}: optimization report</h1>"
+            f"<h1>{esc(run.name)}: optimization report</h1>"
             + (f"<p>{esc(desc)}</p>" if isinstance(desc, str) else "")
             + f"<p>{' · '.join(bits)}</p>"
             f"<p class=key><b>Optimum</b> (weighted sum): {opt or 'no free variable'}<br>"
@@ -47,7 +47,7 @@ def _header(run: RunData) -> str:
 
 
 def _normalization_text(run: RunData) -> str:
-    r, cfg = run.results, run.cfg
+    r = run.results
     lines = [
         "<p class=note>The weighted-sum objective scales each index to [0, 1] between its minimum and maximum over "
         "the design bounds (found by the single-objective stages), flipping a maximized index so that 0 is always its "
@@ -62,8 +62,8 @@ def _normalization_text(run: RunData) -> str:
         lines.append("<p class=note><b>f below 0:</b> a design beats the single-objective stages' best value of an "
                      "index, so those stages did not find the index's true extreme over the bounds (a short run?); "
                      "the scaling above is then only approximate.</p>")
-    if cfg.reference:
-        ref_f = cfg.reference.get("after", {}).get("objective") if isinstance(cfg.reference.get("after"), dict) else None
+    if run.reference:
+        ref_f = run.reference.get("after", {}).get("objective") if isinstance(run.reference.get("after"), dict) else None
         extra = []
         if ref_f is not None:
             extra.append(f"reference f at the after design: {fmt(ref_f)}")
@@ -72,8 +72,8 @@ def _normalization_text(run: RunData) -> str:
                          f"{fmt(r['objective_paper_literal'], 4)}")
         pl = r.get("paper_literal_optimum")
         if isinstance(pl, dict) and isinstance(pl.get("design"), dict):
-            parts = ", ".join(f"{esc(k)} = {fmt(dv.display(pl['design'][k]), 4)} {esc(variable_unit(cfg, k))}"
-                              for k, dv in cfg.design_variables.items() if dv.free and k in pl["design"])
+            parts = ", ".join(f"{esc(k)} = {fmt(dv.display(pl['design'][k]), 4)} {esc(variable_unit(run.units, k))}"
+                              for k, dv in run.units.variables.items() if dv.free and k in pl["design"])
             extra.append(f"minimizing the literal eq. 38 instead gives {parts} (objective {fmt(pl.get('objective'), 4)})")
         if extra:
             lines.append("<p class=note>" + "; ".join(extra) + ".</p>")
@@ -104,7 +104,7 @@ def _front_section(page: Page, run: RunData) -> None:
 
 
 def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> str:
-    page = Page(f"{run.cfg.name}: optimization report")
+    page = Page(f"{run.name}: optimization report")
     page.section("optimum", "Optimum")
     page.html(optimum_table(run))
     page.html(optimum_status_html(run))
@@ -140,7 +140,7 @@ def build_report(run: RunData, atlas_resolution: int = DEFAULT_RESOLUTION) -> st
         _front_section(page, run)
     _views_section(page, run)
     page.section("atlas", "Atlases")
-    amap = atlas_map(run.cfg, run.results["optimum"], atlas_resolution)
+    amap = atlas_map(run.model, run.units, run.workspace, run.results["optimum"], atlas_resolution)
     if amap is None:
         page.html("<p>The workspace is a single pose: there is no map to draw.</p>")
     else:
@@ -163,7 +163,7 @@ def _views_section(page: Page, run: RunData) -> None:
     page.html(f"<script>{COPY_SCRIPT}</script>")   # the copy buttons of the fronts' tables
     fig = mechanism_figure(run, run.results["optimum"], "The weighted-sum optimum")
     if fig is None:
-        page.html(f"<p>The mechanism <code>{esc(run.cfg.mechanism)}</code> has no drawing.</p>")
+        page.html(f"<p>The mechanism <code>{esc(run.mechanism)}</code> has no drawing.</p>")
         return
     page.html("<p class=note>Drawn from the mechanism's own inverse kinematics at the centre of W, the corners of its "
               "box and the sample pose where the Jacobian is worst conditioned (the slider picks the pose). Base: grey, "

@@ -1,5 +1,9 @@
 """A finished run folder read from disk, as plain data (no code from the
-folder is ever executed: JSON, CSV and the config's YAML through the safe loader)."""
+folder is ever executed: JSON, CSV and the config's YAML through the safe loader).
+
+The folder's config.yaml is read here and nowhere else in the HTML report:
+:class:`RunData` holds the plain pieces the pages read of it (the units
+table, the design model, the workspace's region, the names), never the config."""
 from __future__ import annotations
 
 import csv
@@ -7,12 +11,15 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ...config import Config, parse_config
+from ...evaluate import DesignModel
 from ...runs import FORMAT_VERSION, MAX_CONFIG, MAX_JSON, RunFolder, RunFolderError
-from ...units import strip_unit
+from ...units import Units, strip_unit
+from ...workspace import WorkspaceSpec
 
 __all__ = ["RunData", "Front", "load_run", "MAX_FILE_BYTES"]
 
@@ -41,10 +48,22 @@ class RunData:
     path: Path
     manifest: dict
     results: dict
-    cfg: Config
+    name: str                     # the config's name (the manifest's, for a run of a batch)
+    mechanism: str                # the mechanism's name
+    description: Any              # the config's description (None without one)
+    reference: dict               # the config's reference values of named designs
+    units: Units                  # the design-variable table, the indices' senses, what each is shown in
+    model: DesignModel            # a design's mechanism and its indices over any workspace
+    workspace: WorkspaceSpec      # the region W
     stages: dict[str, dict] = field(default_factory=dict)     # name -> result.json
     history: dict[str, list[dict]] = field(default_factory=dict)  # name -> rows of floats
     fronts: dict[str, Front] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, path: Path, manifest: dict, results: dict, cfg: Config) -> "RunData":
+        """The run's data with the pieces of its config (and no stage yet)."""
+        return cls(path, manifest, results, cfg.name, cfg.mechanism, cfg.raw.get("description"), cfg.reference,
+                   cfg.units(), DesignModel.from_config(cfg), cfg.workspace)
 
 
 def _text(data: bytes, p: Path) -> str:
@@ -81,23 +100,23 @@ def _read_csv(text: str) -> tuple[list[str], np.ndarray]:
     return head, np.array([[_num(c) for c in r] for r in body], dtype=float).reshape(len(body), len(head))
 
 
-def _check_results(p: Path, r: dict, cfg: Config) -> None:
+def _check_results(p: Path, r: dict, units: Units) -> None:
     for key, typ in (("optimum", dict), ("global_indices", dict), ("normalization", dict), ("designs", dict)):
         if not isinstance(r.get(key), typ):
             raise RunFolderError(f"{p}: {key}: missing or not a JSON object")
-    for k in cfg.design_variables:
+    for k in units.variables:
         if not isinstance(r["optimum"].get(k), (int, float)):
             raise RunFolderError(f"{p}: optimum.{k}: missing or not a number")
-    for k in cfg.indices:
+    for k in units.indices:
         if not isinstance(r["global_indices"].get(k), (int, float)):
             raise RunFolderError(f"{p}: global_indices.{k}: missing or not a number")
 
 
-def _front(name: str, head: list[str], data: np.ndarray, cfg: Config, terms: list[str] | None) -> Front:
+def _front(name: str, head: list[str], data: np.ndarray, units: Units, terms: list[str] | None) -> Front:
     col = {h: i for i, h in enumerate(head)}
     if terms is None:
         terms = [h[len("objective_"):] for h in head if h.startswith("objective_")]
-    designs = {k: data[:, col[k]] for k in cfg.design_variables if k in col}
+    designs = {k: data[:, col[k]] for k in units.variables if k in col}
     objectives = {}
     for t in terms:
         c = col.get(f"objective_{t}")
@@ -105,7 +124,7 @@ def _front(name: str, head: list[str], data: np.ndarray, cfg: Config, terms: lis
             continue
         # the optimizer minimizes; a maximized index is stored negated as objective_-name
         objectives[t.lstrip("-")] = -data[:, c] if t.startswith("-") else data[:, c].copy()
-    indices = {k: data[:, col[k]] for k in cfg.indices if k in col}
+    indices = {k: data[:, col[k]] for k in units.indices if k in col}
     return Front(name, list(terms), designs, objectives, indices)
 
 
@@ -151,8 +170,8 @@ def load_run(path) -> RunData:
     name = m.get("config_name") or m.get("name")
     if isinstance(name, str) and name:
         cfg.name = name
-    _check_results(res_path, results, cfg)
-    data = RunData(root, m, results, cfg)
+    data = RunData.of(root, m, results, cfg)
+    _check_results(res_path, results, data.units)
     records = m.get("stages") if isinstance(m.get("stages"), dict) else {}
     order = [s for s in m.get("stages_done", []) if isinstance(s, str)]
     sdir = root / "stages"
@@ -199,7 +218,7 @@ def load_run(path) -> RunData:
                 continue
         else:
             continue
-        data.fronts[s] = _front(s, head, arr, cfg, terms)
+        data.fronts[s] = _front(s, head, arr, data.units, terms)
     return data
 
 

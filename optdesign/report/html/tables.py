@@ -40,12 +40,12 @@ def _unit_cell(u: str | None) -> str:
 
 
 def optimum_table(run: RunData) -> str:
-    cfg, r = run.cfg, run.results
+    r = run.results
     names = _named(run)
     headers = ["parameter", "unit", "<b>optimum</b>"] + [f"{esc(n)} (config)" for n in names] + ["bounds"]
     rows = []
-    for k, dv in cfg.design_variables.items():
-        row = [f"<code>{esc(k)}</code>", esc(variable_unit(cfg, k)), f"<b>{fmt(dv.display(r['optimum'][k]))}</b>"]
+    for k, dv in run.units.variables.items():
+        row = [f"<code>{esc(k)}</code>", esc(variable_unit(run.units, k)), f"<b>{fmt(dv.display(r['optimum'][k]))}</b>"]
         for n in names:
             v = r["designs"][n]["parameters"].get(k)
             row.append(fmt(dv.display(v)) if isinstance(v, (int, float)) else "-")
@@ -63,7 +63,7 @@ def _mean(d: dict, k: str):
 def index_table(run: RunData) -> str:
     """Means over W of each index at the optimum and the named designs, the
     spread over W at the optimum, the improvement on the first named design."""
-    cfg, r = run.cfg, run.results
+    r = run.results
     names = _named(run)
     summ = r.get("global_index_summary", {})
     err = r.get("global_indices_error") or {}
@@ -73,16 +73,16 @@ def index_table(run: RunData) -> str:
     if base:
         headers.append(f"improvement on {esc(base)}")
     rows = []
-    for k, spec in cfg.indices.items():
+    for k, (_, sense) in run.units.indices.items():
         o = r["global_indices"][k]
         s = summ.get(k, {}) if isinstance(summ.get(k), dict) else {}
-        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(cfg, k)), "max" if spec.sense == "max" else "min",
+        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(run.units, k)), "max" if sense == "max" else "min",
                f"<b>{fmt(o)}</b>"] + ([fmt(err.get(k), 2)] if err else []) + [fmt(s.get("min")), fmt(s.get("max"))]
         row += [fmt(_mean(r["designs"][n], k)) for n in names]
         if base:
             b = _mean(r["designs"][base], k)
             if isinstance(b, (int, float)) and b and o:
-                factor = b / o if spec.sense == "min" else o / b
+                factor = b / o if sense == "min" else o / b
                 row.append(f"{factor:.3f}×")
             else:
                 row.append("-")
@@ -93,8 +93,8 @@ def index_table(run: RunData) -> str:
 def reference_table(run: RunData) -> str:
     """The named designs' indices beside the config's ``reference:`` values
     (empty if the config has none)."""
-    cfg, r = run.cfg, run.results
-    ref = cfg.reference or {}
+    r = run.results
+    ref = run.reference or {}
     names = [n for n in _named(run) if n in ref]
     if not names:
         return ""
@@ -102,8 +102,8 @@ def reference_table(run: RunData) -> str:
     for n in names:
         headers += [f"{esc(n)} (ours)", f"{esc(n)} (reference)", "rel. diff"]
     rows = []
-    for k in cfg.indices:
-        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(cfg, k))]
+    for k in run.units.indices:
+        row = [f"<code>{esc(k)}</code>", _unit_cell(index_unit(run.units, k))]
         for n in names:
             v, p = _mean(r["designs"][n], k), ref[n].get(k)
             row += [fmt(v), fmt(p), f"{100 * (v - p) / p:+.2f}%" if isinstance(v, (int, float)) and p else "-"]
@@ -115,9 +115,9 @@ def _design_text(run: RunData, design) -> str:
     if not isinstance(design, dict):
         return "<span class=muted>not recorded</span>"
     parts = []
-    for k, dv in run.cfg.design_variables.items():
+    for k, dv in run.units.variables.items():
         if dv.free and isinstance(design.get(k), (int, float)):
-            parts.append(f"{esc(k)}&nbsp;=&nbsp;{fmt(dv.display(design[k]), 4)}&nbsp;{esc(variable_unit(run.cfg, k))}")
+            parts.append(f"{esc(k)}&nbsp;=&nbsp;{fmt(dv.display(design[k]), 4)}&nbsp;{esc(variable_unit(run.units, k))}")
     return ", ".join(parts) or "-"
 
 
@@ -130,7 +130,7 @@ def normalization_table(run: RunData) -> str:
     for k, v in norm.items():
         if not isinstance(v, dict):
             continue
-        unit = index_unit(run.cfg, k) if k in run.cfg.indices else None
+        unit = index_unit(run.units, k) if k in run.units.indices else None
         # where each extreme was found: results.json records it (a later stage may
         # have moved it); older runs have only the single-objective stages
         lo_d = v.get("min_design") or run.stages.get(f"single_{k}_min", {}).get("design")
@@ -176,7 +176,7 @@ def manifest_table(run: RunData) -> str:
     add("seed", m.get("seed"))
     add("run key", m.get("run_key"))
     add("config", m.get("config_source") or m.get("config_name"))
-    add("mechanism", run.cfg.mechanism)
+    add("mechanism", run.mechanism)
     add("started", m.get("start_time"))
     add("finished", m.get("end_time"))
     add("wall time", f"{m.get('wall_time_s')} s" if m.get("wall_time_s") is not None else None)

@@ -13,7 +13,6 @@ import itertools
 import numpy as np
 import plotly.graph_objects as go
 
-from ...evaluate import build, evaluate, mechanism_class
 from ...workspace import Workspace, WorkspaceSpec
 from ...units import index_label, pose_display, variable_unit
 from .figures import TEMPLATE, esc
@@ -23,18 +22,17 @@ __all__ = ["mechanism_figure", "alternatives", "workspace_figure", "copy_table",
 
 
 def _design(run: RunData, params: dict) -> dict:
-    return {k: float(params.get(k, dv.value)) for k, dv in run.cfg.design_variables.items()}
+    return {k: float(params.get(k, v)) for k, v in run.model.defaults.items()}
 
 
 def _mech(run: RunData, params: dict):
-    return build(run.cfg, _design(run, params))
+    return run.model.build(_design(run, params))
 
 
 def chosen_poses(run: RunData, params: dict) -> list[tuple[str, np.ndarray]]:
     """(label, pose) pairs: the centre of W, its box's corners, the worst-conditioned sample."""
-    cfg = run.cfg
-    names = mechanism_class(cfg).pose_names
-    ws = cfg.workspace
+    names = run.model.mechanism.pose_names
+    ws = run.workspace
     if ws.type == "cylinder":
         lo = np.array([ws.center[0] - ws.radius, ws.center[1] - ws.radius, ws.axes[names[2]][0]])
         hi = np.array([ws.center[0] + ws.radius, ws.center[1] + ws.radius, ws.axes[names[2]][1]])
@@ -70,9 +68,8 @@ def _sample(run: RunData, per_axis: int | None = None, slice_extra: bool = False
     """A grid over W (its box, clipped to a cylinder's disc) in SI, at most
     MAX_SAMPLE poses; ``slice_extra``: the free axes after the first three at
     the centre of their ranges (a 3-D slice of a higher-dimensional W)."""
-    cfg = run.cfg
-    names = mechanism_class(cfg).pose_names
-    ws = cfg.workspace
+    names = run.model.mechanism.pose_names
+    ws = run.workspace
     if ws.type == "cylinder":
         ranges = [(ws.center[0] - ws.radius, ws.center[0] + ws.radius), (ws.center[1] - ws.radius, ws.center[1] + ws.radius),
                   tuple(ws.axes[names[2]])]
@@ -152,10 +149,10 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
         return None
     unit, scale = "m", 1.0
     order = _ordered(dr["platform"][0])
-    names = mechanism_class(run.cfg).pose_names
+    names = run.model.mechanism.pose_names
     labels = []
     for (lab, x), k in zip(poses, range(len(poses))):
-        where = ", ".join(f"{a} = {x[i] * pose_display(run.cfg, a)[1]:.4g} {pose_display(run.cfg, a)[0]}"
+        where = ", ".join(f"{a} = {x[i] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}"
                           for i, a in enumerate(names))
         ok = np.all(np.isfinite(dr["platform"][k]))
         labels.append(f"{lab}: {where}" + ("" if ok else " (not reachable)"))
@@ -185,7 +182,7 @@ def alternatives(run: RunData, count: int = 3) -> list[tuple[str, dict]]:
         for o, v in front.objectives.items():
             if not front.size or not np.any(np.isfinite(v)):
                 continue
-            sense = run.cfg.indices[o].sense if o in run.cfg.indices else "min"
+            sense = run.units.indices[o][1] if o in run.units.indices else "min"
             i = int(np.nanargmax(v) if sense == "max" else np.nanargmin(v))
             d = {k: float(a[i]) for k, a in front.designs.items()}
             key = tuple(round(x, 12) for x in d.values())
@@ -197,21 +194,19 @@ def alternatives(run: RunData, count: int = 3) -> list[tuple[str, dict]]:
 
 def _local_values(run: RunData, params: dict, X: np.ndarray) -> dict:
     """Local indices (SI) of one design at the points X (N, dof): index -> (N,)."""
-    cfg = run.cfg
-    names = list(mechanism_class(cfg).pose_names)
+    names = list(run.model.mechanism.pose_names)
     ws = Workspace(WorkspaceSpec(type="box", axes={a: (float(X[:, i].min()), float(X[:, i].max())) for i, a in enumerate(names)},
                                  sampling="grid", points_per_axis=2), tuple(names), X, None)
     with np.errstate(all="ignore"):
-        ev = evaluate(cfg, [_design(run, params)], ws, keep_local=True)
-    return {k: np.asarray(ev.local[k][0], float) for k in cfg.indices}
+        ev = run.model.evaluate([_design(run, params)], ws, keep_local=True)
+    return {k: np.asarray(ev.local[k][0], float) for k in run.units.indices}
 
 
 def _surface_grid(run: RunData, n: int = 41):
     """For a W with exactly two free axes: (free axis indices, the two grids,
     the poses (n*n, dof) in SI, inside mask (n*n,)); None otherwise."""
-    cfg = run.cfg
-    names = mechanism_class(cfg).pose_names
-    ws = cfg.workspace
+    names = run.model.mechanism.pose_names
+    ws = run.workspace
     if ws.type == "cylinder":
         ranges = [(ws.center[0] - ws.radius, ws.center[0] + ws.radius), (ws.center[1] - ws.radius, ws.center[1] + ws.radius),
                   tuple(ws.axes[names[2]])] + [tuple(ws.axes[a]) for a in names[3:]]
@@ -232,33 +227,32 @@ def _surface_grid(run: RunData, n: int = 41):
 
 def _surface_figure(run: RunData, params: dict, grid) -> go.Figure:
     """A 2-D W: one surface per local index over W, its height and colour the index."""
-    cfg = run.cfg
-    names = list(mechanism_class(cfg).pose_names)
+    names = list(run.model.mechanism.pose_names)
     free, g, X, inside = grid
     vals = _local_values(run, params, X[inside])
-    disp = [pose_display(cfg, names[i]) for i in free]
+    disp = [pose_display(run.units, names[i]) for i in free]
     fig = go.Figure()
-    keys = list(cfg.indices)
+    keys = list(run.units.indices)
     for j, k in enumerate(keys):
         v = np.full(len(X), np.nan)
         v[inside] = vals[k]
         Z = v.reshape(len(g[1]), len(g[0]))
-        lab = esc(index_label(cfg, k))
+        lab = esc(index_label(run.units, k))
         fig.add_trace(go.Surface(x=g[0] * disp[0][1], y=g[1] * disp[1][1], z=Z, surfacecolor=Z, colorscale="Viridis",
                                  visible=j == 0, name=esc(k), colorbar=dict(title=dict(text=lab, side="right")),
                                  hovertemplate=f"{esc(names[free[0]])} = %{{x:.4g}}, {esc(names[free[1]])} = %{{y:.4g}}<br>"
                                                f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
-    fixed = ", ".join(f"{a} = {X[0, i] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}"
+    fixed = ", ".join(f"{a} = {X[0, i] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}"
                       for i, a in enumerate(names) if i not in free)
     buttons = [dict(label=esc(k), method="update",
                     args=[{"visible": [i == j for i in range(len(keys))]},
-                          {"scene.zaxis.title.text": esc(index_label(cfg, k))}])
+                          {"scene.zaxis.title.text": esc(index_label(run.units, k))}])
                for j, k in enumerate(keys)]
     fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=60, b=10),
                       title=dict(text=esc("The workspace W as a surface: height and colour a local index of the "
                                           "weighted-sum optimum" + (f" ({fixed})" if fixed else "")), x=0.01, y=0.98),
                       scene=dict(xaxis_title=f"{names[free[0]]} [{disp[0][0]}]", yaxis_title=f"{names[free[1]]} [{disp[1][0]}]",
-                                 zaxis_title=esc(index_label(cfg, keys[0])), aspectmode="manual",
+                                 zaxis_title=esc(index_label(run.units, keys[0])), aspectmode="manual",
                                  aspectratio=dict(x=1, y=1, z=0.6)),
                       updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
     return fig
@@ -268,8 +262,7 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     """W coloured by each local index of the design (a menu picks the index):
     a W with two free axes as a surface over it (height and colour the index),
     otherwise W in 3-D at the sample grid's points."""
-    cfg = run.cfg
-    names = list(mechanism_class(cfg).pose_names)
+    names = list(run.model.mechanism.pose_names)
     grid = _surface_grid(run)
     if grid is not None:
         return _surface_figure(run, params, grid)
@@ -277,22 +270,22 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     if len(X) < 2:
         return None
     held = [a for i, a in enumerate(names) if i >= 3 and np.ptp(X[:, i]) == 0 and np.ptp(_sample(run, 2)[:, i]) > 0]
-    parts = [f"{a} = {X[0, names.index(a)] * pose_display(cfg, a)[1]:.4g} {pose_display(cfg, a)[0]}" for a in held]
+    parts = [f"{a} = {X[0, names.index(a)] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}" for a in held]
     cut = "a 3-D slice of W: " + ", ".join(parts) if held else ""
     vals = _local_values(run, params, X)
-    disp = [pose_display(cfg, a) for a in names[:3]]
+    disp = [pose_display(run.units, a) for a in names[:3]]
     C = [X[:, i] * disp[i][1] for i in range(min(3, len(names)))]
     while len(C) < 3:
         C.append(np.zeros(len(X)))
         disp.append(("", 1.0))
     fig = go.Figure()
-    keys = list(cfg.indices)
+    keys = list(run.units.indices)
     for j, k in enumerate(keys):
         v = vals[k]
         good = np.isfinite(v)
         fig.add_trace(go.Scatter3d(x=C[0][good], y=C[1][good], z=C[2][good], mode="markers", visible=j == 0, name=esc(k),
                                    marker=dict(size=3 if len(X) > 2000 else 4, color=v[good], colorscale="Viridis",
-                                               colorbar=dict(title=dict(text=esc(index_label(cfg, k)), side="right"))),
+                                               colorbar=dict(title=dict(text=esc(index_label(run.units, k)), side="right"))),
                                    hovertemplate=f"{esc(k)} = %{{marker.color:.5g}}<extra></extra>"))
     axes = [f"{names[i]} [{disp[i][0]}]" if i < len(names) else "(plane)" for i in range(3)]
     buttons = [dict(label=esc(k), method="update", args=[{"visible": [i == j for i in range(len(keys))]}])
@@ -306,10 +299,9 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
 
 
 def _snippet(run: RunData, name: str, d: dict) -> str:
-    cfg = run.cfg
     lines = [f"{name}:"]
-    for k, dv in cfg.design_variables.items():
-        u = variable_unit(cfg, k)
+    for k, dv in run.units.variables.items():
+        u = variable_unit(run.units, k)
         lines.append(f"  {k}: {dv.display(float(d.get(k, dv.value))):.12g}   # {u}")
     return "\n".join(lines) + "\n"
 
@@ -317,14 +309,13 @@ def _snippet(run: RunData, name: str, d: dict) -> str:
 def copy_table(run: RunData, front: Front, max_rows: int = 200) -> str:
     """A table of the front's designs (config units) with a copy button each for
     its ``designs:`` snippet (every string escaped, the snippet in an attribute)."""
-    cfg = run.cfg
-    free = [k for k, dv in cfg.design_variables.items() if dv.free and k in front.designs]
-    head = "".join(f"<th class=num>{esc(k)} [{esc(variable_unit(cfg, k))}]</th>" for k in free)
+    free = [k for k, dv in run.units.variables.items() if dv.free and k in front.designs]
+    head = "".join(f"<th class=num>{esc(k)} [{esc(variable_unit(run.units, k))}]</th>" for k in free)
     rows = []
     for i in range(min(front.size, max_rows)):
         d = {k: float(a[i]) for k, a in front.designs.items()}
         snip = _snippet(run, f"{front.name}_{i + 1}", d)
-        cells = "".join(f"<td class=num>{cfg.design_variables[k].display(d[k]):.6g}</td>" for k in free)
+        cells = "".join(f"<td class=num>{run.units.variables[k].display(d[k]):.6g}</td>" for k in free)
         rows.append(f"<tr><td>{i + 1}</td>{cells}<td><button type=button class=copy "
                     f"data-snippet=\"{html.escape(snip, quote=True)}\">copy designs: snippet</button></td></tr>")
     more = "" if front.size <= max_rows else f"<p class=note>The first {max_rows} of {front.size} designs.</p>"
