@@ -32,7 +32,7 @@ from . import worstcase
 
 __all__ = ["Evaluation", "Evaluator", "DesignModel", "evaluate", "evaluate_named", "workspace_of", "build",
            "mechanism_class", "index_requests", "check_size", "global_indices_error", "error_method",
-           "unreachable_design", "unreachable_message"]
+           "SPECIALIZE_WORK", "run_kernel_work"]
 
 #: the hidden request for the worst conditioning over W when the config has no isotropy index
 _COND = "__cond_2"
@@ -196,32 +196,6 @@ def evaluate_named(config: Config, names=None, workspace: Workspace | None = Non
             rec["global_indices_status"] = {k: str(v[i]) for k, v in ev.status.items()}
         out[n] = rec
     return out
-
-
-def unreachable_message(config: Config, name: str) -> str:
-    """The one line for a named design that reaches no point of W, with a hint
-    when a length of it was written without a unit and is implausibly large in m."""
-    msg = f"no pose of W is reachable for design {name!r}"
-    cls = mechanism_class(config)
-    design = config.design(name)
-    big = [k for k in cls.length_parameters if k in design and design[k] > 10.0
-           and getattr(config.design_variables.get(k), "unit", None) is None]
-    if big:
-        k = big[0]
-        return (f"{msg}; are the values in m? ({k} = {design[k]:g} m); write the unit of values in millimetres, "
-                f"e.g. {k}: {{value: {design[k]:g}, unit: mm}}")
-    return f"{msg}; check the design's dimensions (their units) against the workspace"
-
-
-def unreachable_design(config: Config, names=None, workspace: Workspace | None = None) -> str | None:
-    """The first named design (all when ``names`` is None) whose mechanism
-    reaches no point of W, or None (the numpy model's ``reachable``, cheap:
-    no index is computed)."""
-    ws = workspace_of(config) if workspace is None else workspace
-    for n in (list(names) if names else list(config.designs)):
-        if not np.any(build(config, n).reachable(ws.X)):
-            return n
-    return None
 
 
 def global_indices_error(config: Config, designs, workspace: Workspace | None = None) -> list[dict[str, float]]:

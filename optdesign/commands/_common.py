@@ -152,3 +152,36 @@ def json_text(obj) -> str:
         return str(o)
 
     return json.dumps(clean(obj), indent=2, allow_nan=False)
+
+
+# ---------------------------------------------------------------------- designs that reach nothing
+def unreachable_message(config, name: str) -> str:
+    """The one line for a named design that reaches no point of W, with a hint
+    when a length of it was written without a unit and is implausibly large in m."""
+    from ..evaluate import mechanism_class
+
+    msg = f"no pose of W is reachable for design {name!r}"
+    cls = mechanism_class(config)
+    design = config.design(name)
+    big = [k for k in cls.length_parameters if k in design and design[k] > 10.0
+           and getattr(config.design_variables.get(k), "unit", None) is None]
+    if big:
+        k = big[0]
+        return (f"{msg}; are the values in m? ({k} = {design[k]:g} m); write the unit of values in millimetres, "
+                f"e.g. {k}: {{value: {design[k]:g}, unit: mm}}")
+    return f"{msg}; check the design's dimensions (their units) against the workspace"
+
+
+def unreachable_design(config, names=None, workspace=None) -> str | None:
+    """The first named design (all when ``names`` is None) whose mechanism
+    reaches no point of W, or None (the numpy model's ``reachable``, cheap:
+    no index is computed)."""
+    import numpy as np
+
+    from ..evaluate import build, workspace_of
+
+    ws = workspace_of(config) if workspace is None else workspace
+    for n in (list(names) if names else list(config.designs)):
+        if not np.any(build(config, n).reachable(ws.X)):
+            return n
+    return None

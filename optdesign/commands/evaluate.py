@@ -51,7 +51,8 @@ def run(args) -> int:
     from ._common import design_names, open_config
     from ..tables import print_table
     from ..config import ConfigError
-    from ..evaluate import error_method, evaluate_named, unreachable_design, unreachable_message, workspace_of
+    from ..evaluate import error_method, evaluate_named, workspace_of
+    from ._common import unreachable_design, unreachable_message
 
     cfg = open_config(args.config)
     names = design_names(cfg, args.design)

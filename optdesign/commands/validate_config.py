@@ -13,7 +13,8 @@ def register(sub):
 def run(args) -> int:
     from ._common import open_config
     from ..config import ConfigError
-    from ..evaluate import unreachable_design, unreachable_message, workspace_of
+    from ..evaluate import workspace_of
+    from ._common import unreachable_design, unreachable_message
 
     from ..batch import is_batch_file, load_batch_file
 

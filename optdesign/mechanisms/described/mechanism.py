@@ -29,6 +29,7 @@ from . import kinematics as _kin
 from .constants import Constants, constants
 from .dynamics import potential_energy, twist_dynamics
 from .legs import leg_state
+from .memo import CONSTANTS, params_key
 from .poses import rate_bias, rate_map, twist_columns
 from .schema import Description
 
@@ -59,29 +60,6 @@ class DescribedMeta(type):
     description (see optdesign.mechanisms.described)."""
 
 
-class _Recent:
-    """The last ``size`` values by key (first in, first out; no locking: a
-    process's evaluations run on one thread)."""
-
-    def __init__(self, size: int):
-        self.size = size
-        self.data: dict = {}
-
-    def get(self, key):
-        return self.data.get(key)
-
-    def put(self, key, value) -> None:
-        if len(self.data) >= self.size:
-            self.data.pop(next(iter(self.data)))
-        self.data[key] = value
-
-
-#: constants of the designs evaluated last (any described class; keyed by its name and parameters)
-_CONSTANTS = _Recent(512)
-#: the engine's packing of the same (optdesign.mechanisms.described.packing)
-PACKS = _Recent(512)
-
-
 class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     """A mechanism whose legs, joints and dimensions are data (see
     docs/mechanisms-as-data.md).  Subclasses are made by :func:`make_class`."""
@@ -109,25 +87,16 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         c = self.__dict__.get("_constants")
         if c is None:
             key = self.params_key()
-            c = _CONSTANTS.get(key)
+            c = CONSTANTS.get(key)
             if c is None:
                 c = constants(self.description, self.params)
-                _CONSTANTS.put(key, c)
+                CONSTANTS.put(key, c)
             self.__dict__["_constants"] = c
         return c
 
     def params_key(self) -> tuple:
-        """The parameters' values (class, names, shapes and bytes): equal keys,
-        equal constants (an optimizer makes a new mechanism for every design it
-        visits, and visits many twice)."""
-        key = self.__dict__.get("_params_key")
-        if key is None:
-            items = []
-            for k in sorted(self.params):
-                a = np.asarray(self.params[k], dtype=float)
-                items.append((k, a.shape, a.tobytes()))
-            key = self.__dict__["_params_key"] = (type(self).name, tuple(items))
-        return key
+        """The key of this parameter set in the class's memory (:func:`.memo.params_key`)."""
+        return params_key(self)
 
     @property
     def pose_spec(self):
@@ -195,7 +164,9 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         :meth:`Mechanism.drawing`): each leg from its base point A through the
         actuated point (slider or crank tip; a strut goes straight) to its
         platform point b; the rods (of length ``l``) from the actuated point to b."""
-        return _drawing(self, X)
+        from .drawing import drawing
+
+        return drawing(self, X)
 
     def forward(self, Q: np.ndarray, X0: np.ndarray | None = None) -> np.ndarray:
         """Forward kinematics (..., N, dof): the pose with these actuator values
@@ -402,23 +373,6 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         from .checks import check_designs
 
         return check_designs(cls, parameters, designs)
-
-
-def _drawing(mech, X) -> dict:
-    st = mech.leg_state(np.asarray(X, dtype=float))
-    C = mech.constants
-    b, a = st["b"], st["a"]                                              # (N, n, 3)
-    bad = ~st["reachable"]
-    b = np.where(bad[:, None, None], np.nan, b)
-    A = np.broadcast_to(C.A, b.shape)
-    kind = np.broadcast_to(np.asarray(C.kind), b.shape[1:2])
-    legs = [np.stack([A[:, i], b[:, i]] if kind[i] == 2 else [A[:, i], a[:, i], b[:, i]], axis=1)
-            for i in range(b.shape[1])]
-    rod = [i for i in range(b.shape[1]) if kind[i] != 2]
-    rods = np.stack([a[:, rod], b[:, rod]], axis=-2) if rod else np.zeros((b.shape[0], 0, 2, 3))
-    Lr = np.broadcast_to(np.asarray(C.Lr, float), kind.shape)
-    return {"base": A.copy(), "platform": b, "joints": np.concatenate([A, a, b], 1), "legs": legs,
-            "rods": rods, "rod_lengths": np.array([float(Lr[i]) for i in rod])}
 
 
 def _param_table(desc: Description) -> tuple:

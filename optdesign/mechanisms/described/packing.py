@@ -22,7 +22,7 @@ def pack(mech):
     worst-case search calls the kernel thousands of times for one design)."""
     memo = mech.__dict__.get("_engine_pack")
     if memo is None:
-        from .mechanism import PACKS
+        from .memo import PACKS
 
         key = mech.params_key() if hasattr(mech, "params_key") else None
         memo = PACKS.get(key) if key is not None else None

@@ -1,0 +1,46 @@
+"""What a described class keeps of the designs it evaluated last: their
+constants (:mod:`.constants`) and the engine's packing of them
+(:mod:`.packing`), keyed by the class and its parameters' values (an
+optimizer makes a new mechanism for every design it visits, and visits many
+twice: a polish's line search, the worst-case search per design)."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CONSTANTS", "PACKS", "params_key"]
+
+
+class _Recent:
+    """The last ``size`` values by key (first in, first out; no locking: a
+    process's evaluations run on one thread)."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self.data: dict = {}
+
+    def get(self, key):
+        return self.data.get(key)
+
+    def put(self, key, value) -> None:
+        if len(self.data) >= self.size:
+            self.data.pop(next(iter(self.data)))
+        self.data[key] = value
+
+
+#: constants of the designs evaluated last (any described class; keyed by its name and parameters)
+CONSTANTS = _Recent(512)
+#: the engine's packing of the same (optdesign.mechanisms.described.packing)
+PACKS = _Recent(512)
+
+
+def params_key(mech) -> tuple:
+    """The parameters' values of ``mech`` (class, names, shapes and bytes):
+    equal keys, equal constants; computed once per mechanism."""
+    key = mech.__dict__.get("_params_key")
+    if key is None:
+        items = []
+        for k in sorted(mech.params):
+            a = np.asarray(mech.params[k], dtype=float)
+            items.append((k, a.shape, a.tobytes()))
+        key = mech.__dict__["_params_key"] = (type(mech).name, tuple(items))
+    return key
