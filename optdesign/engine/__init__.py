@@ -25,6 +25,7 @@ import numpy as np
 
 from ..fast import KernelModule
 from ..formulas import DYN, NVAL, kernel_value
+from .layout import CHUNK
 
 __all__ = ["KERNELS", "kernel_module", "plan", "run", "workers", "specialize", "tier", "TIER_VAR"]
 
@@ -86,6 +87,17 @@ def workers() -> int:
 
 
 _POOL = None
+_SELECTORS: dict = {}
+#: the kernel has run in this process (generic tier: True, specialized: False), so it is compiled or loaded
+_READY: dict = {}
+
+
+def _selector(spec):
+    """spec.numba_args(), made once per spec (a record array each call would cost more than the call)."""
+    sel = _SELECTORS.get(spec)
+    if sel is None:
+        sel = _SELECTORS[spec] = spec.numba_args()
+    return sel
 #: design-points below which a call runs on the calling thread only
 SMALL_CALL = 8192
 
@@ -112,8 +124,6 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     K = kernel_module()
     if K is None:
         return None
-    from .layout import CHUNK
-
     ptype, ct, kind, branch = codes
     D = L.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
@@ -123,13 +133,17 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     keep = np.zeros((0, 0, 0)) if keep is None else keep
     # small calls on this thread alone: waking a pool thread costs more than it saves
     nw = 1 if D * N < SMALL_CALL else max(1, min(workers(), D * nch))
-    sel = None if spec is None else spec.numba_args()
+    sel = None if spec is None else _selector(spec)
     args = (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel)
 
     def task(w):
         return K.run_tasks(w, nw, *args)
 
-    if nw > 1 and K.run_tasks.signatures:
+    ready = _READY.get(sel is None)
+    if nw == 1 and ready:
+        # the common small call (a search's few poses): no pool, no notice
+        KERNELS.guarded(K.run_tasks, 0, 1, *args)
+    elif nw > 1 and ready:
         # the other shares on the pool's threads, this one here (the kernel releases the GIL)
         futures = [_pool(nw - 1).submit(task, w) for w in range(1, nw)]
         KERNELS.guarded(task, 0)
@@ -141,6 +155,7 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
             KERNELS.guarded(task, 0)
         if KERNELS.module is None:      # it failed (a warning said why): the numpy path from now on
             return None
+        _READY[sel is None] = True
         if nw > 1:
             futures = [_pool(nw - 1).submit(task, w) for w in range(1, nw)]
             for f in futures:

@@ -213,7 +213,7 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
     """Values and reach codes of design d at the m points of the frame block
     FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
     n = kind.shape[0]
-    dyn_, sv_inv, sv_j, cols, rods, rot = flags
+    dyn_, sv_inv, sv_j, cols, rods, rot = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
     Lg, mats, B, T, V, S = scratch
     J = mats[0]
     U = mats[1]
@@ -330,8 +330,8 @@ def run_tasks(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, p
 
     ct (n,): the pose-column kinds; kind, branch (n,); L (D, n, NL), F (D, NF);
     FR (1 or D, N, FR_ROWS[ptype]): the frame data of the N points; want
-    (NVAL,) booleans; flags: (dynamic, sigma_min, sigma_max, column norms,
-    rods, rotations) booleans; sel: None (the generic routines) or the
+    (NVAL,) booleans; flags (6,) booleans: dynamic, sigma_min, sigma_max,
+    column norms, rods, rotations; sel: None (the generic routines) or the
     selector of the shape's generated ones (see inverse_sel)."""
     n = kind.shape[0]
     D = L.shape[0]

@@ -120,17 +120,17 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
 
 
 def _flags(want, codes):
-    """The kernel's flags (dynamic, sigma_min, sigma_max, column norms, rods, rotations) for the wanted values."""
+    """The kernel's flags (dynamic, sigma_min, sigma_max, column norms, rods,
+    rotations) for the wanted values, as a bool array (numba types it fast)."""
     ptype, _, kind, _ = codes
-    return (bool(want[DYN]), bool(want[SMIN] or want[SMIN2] or want[TWO]), bool(want[TWO]),
-            bool(want[COL0:].any()), kernel_spec(codes).rods, ptype != 0)
+    return np.array([want[DYN], want[SMIN] or want[SMIN2] or want[TWO], want[TWO], want[COL0:].any(),
+                     kernel_spec(codes).rods, ptype != 0], dtype=np.bool_)
 
 
 def _plan_of(mech, requests):
     """(plan, want, flags) of the requests for mech's shape, kept per request
-    list (the worst-case search asks with the same requests thousands of times)."""
-    key = tuple((r.name, r.kind, r.convention, tuple(sorted((r.options or {}).items()))
-                 if isinstance(r.options, dict) else r.options) for r in requests)
+    tuple (the worst-case search asks with the same requests thousands of times)."""
+    key = tuple(requests)
     memo = mech.__dict__.setdefault("_engine_plans", {})
     got = memo.get(key)
     if got is None:
