@@ -88,6 +88,10 @@ def workers() -> int:
 
 _POOL = None
 _SELECTORS: dict = {}
+_NO_KEEP = np.zeros((0, 0, 0))
+#: the workers' scratch kept between calls, and who holds it
+_BUF = None
+_BUF_LOCK = __import__("threading").Lock()
 #: the kernel has run in this process (generic tier: True, specialized: False), so it is compiled or loaded
 _READY: dict = {}
 
@@ -127,14 +131,35 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     ptype, ct, kind, branch = codes
     D = L.shape[0]
     nch = (N + CHUNK - 1) // CHUNK
-    out_codes = np.zeros((D, N), dtype=np.int8)
-    part = np.zeros((D, nch, NVAL, 4))
-    cnt = np.zeros((D, nch), dtype=np.int64)
-    keep = np.zeros((0, 0, 0)) if keep is None else keep
+    out_codes = np.empty((D, N), dtype=np.int8)        # every entry written by its task
+    part = np.empty((D, nch, NVAL, 4))
+    cnt = np.empty((D, nch), dtype=np.int64)
+    keep = _NO_KEEP if keep is None else keep
     # small calls on this thread alone: waking a pool thread costs more than it saves
     nw = 1 if D * N < SMALL_CALL else max(1, min(workers(), D * nch))
     sel = None if spec is None else _selector(spec)
-    args = (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel)
+    buf, lock = _buffers(K, nw)
+    try:
+        return _run(K, nw, (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel, buf),
+                    sel, stats, part, cnt, want, out_codes)
+    finally:
+        if lock is not None:
+            lock.release()
+
+
+def _buffers(K, nw):
+    """(buf (nw, WORDS), lock or None): the workers' scratch kept between calls
+    (zeroed once), or a fresh one while another thread's call holds it."""
+    global _BUF
+    if _BUF_LOCK.acquire(blocking=False):
+        if _BUF is None or _BUF.shape[0] < nw:
+            _BUF = np.zeros((nw, K.WORDS))
+        return _BUF, _BUF_LOCK
+    return np.zeros((nw, K.WORDS)), None
+
+
+def _run(K, nw, args, sel, stats, part, cnt, want, out_codes):
+    """The kernel's call on nw threads (see :func:`run`)."""
 
     def task(w):
         return K.run_tasks(w, nw, *args)

@@ -198,14 +198,44 @@ def _ov_dyn_sel(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
 
 
 # ---------------------------------------------------------------------- one block of points
+#: words of one worker's scratch (:func:`_carve`), for any n up to NMAX
+WORDS = (NMAX * NLG * BLK + 4 * NMAX * NMAX * BLK + NB * BLK + 2 * NMAX * BLK + (NVS + 3 * NMAX) * BLK
+         + SROWS * BLK + NFR * BLK + NVAL * CHUNK + CHUNK)
+
+
+@register_jitable(**_JITABLE)
+def _carve(buf, n):
+    """One worker's scratch as views of its buffer (WORDS floats, zeros at
+    first, then what earlier calls left: finite numbers, which the code that
+    computes a whole block reads beyond m): legs (n, NLG BLK), four n x n
+    matrices (J, J^-1 or R^-1, K, W), the rigid-body B (NB rows), the
+    tridiagonal (2 n rows), vectors (NVS + 3 n rows), the dense routines' rows;
+    then the frame block, the values and the codes of a chunk."""
+    o = 0
+    Lg = buf[o:o + n * NLG * BLK].reshape((n, NLG * BLK))
+    o += n * NLG * BLK
+    mats = buf[o:o + 4 * n * n * BLK].reshape((4, n * n * BLK))
+    o += 4 * n * n * BLK
+    B = buf[o:o + NB * BLK]
+    o += NB * BLK
+    T = buf[o:o + 2 * n * BLK]
+    o += 2 * n * BLK
+    V = buf[o:o + (NVS + 3 * n) * BLK]
+    o += (NVS + 3 * n) * BLK
+    S = buf[o:o + SROWS * BLK]
+    o += SROWS * BLK
+    FRb = buf[o:o + NFR * BLK]
+    o += NFR * BLK
+    vals = buf[o:o + NVAL * CHUNK]
+    o += NVAL * CHUNK
+    cbuf = buf[o:o + CHUNK]
+    return (Lg, mats, B, T, V, S), FRb, vals, cbuf
+
+
 @register_jitable(**_JITABLE)
 def _alloc(n):
-    """The scratch of one worker (flat rows of BLK, zeros: code that computes a
-    whole block reads finite numbers beyond m): legs (n, NLG BLK), four n x n
-    matrices (J, J^-1 or R^-1, K, W), the rigid-body B (NB rows), the
-    tridiagonal (2 n rows), vectors (NVS + 3 n rows), the dense routines' rows."""
-    return (np.zeros((n, NLG * BLK)), np.zeros((4, n * n * BLK)), np.zeros(NB * BLK), np.zeros(2 * n * BLK),
-            np.zeros((NVS + 3 * n) * BLK), np.zeros(SROWS * BLK))
+    """A fresh scratch (:func:`_carve` of a zero buffer)."""
+    return _carve(np.zeros(WORDS), n)
 
 
 @register_jitable(**_JITABLE)
@@ -320,7 +350,7 @@ def _load_block(FRd, lo, m, FRb):
 
 
 @njit(nogil=True, **_NJIT)
-def run_tasks(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, part, cnt, keep, sel):
+def run_tasks(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, part, cnt, keep, sel, buf):
     """Tasks w, w + nw, ... of the D ceil(N / CHUNK) tasks (CHUNK points of one
     design each): their reach codes into codes (D, N) (int8), each task's
     (sum, min, max, centred sum of squares) per wanted value into part (D,
@@ -339,10 +369,7 @@ def run_tasks(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, p
     ntask = D * nch
     if n < 1 or n > NMAX or w >= ntask:
         return
-    scratch = _alloc(n)
-    FRb = np.zeros(NFR * BLK)
-    vals = np.zeros(NVAL * CHUNK)
-    cbuf = np.empty(CHUNK)
+    scratch, FRb, vals, cbuf = _carve(buf[w], n)
     per_design = FR.shape[0] > 1
     for t in range(w, ntask, nw):
         d = t // nch
@@ -405,10 +432,9 @@ def mass_blocks(ptype, ct, kind, branch, L, F, FRg, bd, sel):
     rods = False
     for i in range(n):
         rods = rods or kind[i] != 2
-    Lg, mats, B, T, V, S = _alloc(n)
+    (Lg, mats, B, T, V, S), FRb, _, _ = _alloc(n)
     J = mats[0]
     Kp = mats[2]
-    FRb = np.zeros(NFR * BLK)
     for b in range(nb):
         d = bd[b]
         _load_block(FRg, b * BLK, BLK, FRb)
