@@ -1,0 +1,2 @@
+def check_designs(cls, parameters, designs):
+    return None

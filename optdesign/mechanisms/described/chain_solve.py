@@ -1,0 +1,270 @@
+"""The closure equations of a chain description and their solution with a
+defined branch: inverse kinematics (independent pose coordinates -> every
+chain's joint values and the parasitic coordinates) and forward kinematics
+(actuator values -> the whole pose), by vectorized Newton.
+
+The unknowns of the inverse problem are ``u = (theta of chain 1, ...,
+theta of chain m, x_par)``; the equations are every chain's closure
+(:func:`.chain_poe.leg_rows`).  The forward problem's unknowns are the passive
+joint values and the whole pose; its equations add the shorthand legs'
+distances ``(|b - a(q)|^2 - l^2) / (2 L)``.  A system with more equations than
+unknowns (an overconstrained mechanism, e.g. the 2-CPR/RRR) is solved in the
+least-squares sense (Gauss-Newton; it is consistent at a solution).
+
+**The branch.**  The home configuration of a design is the solution Newton
+(damped) reaches at the home pose from the joints' ``home`` values and the
+pose's ``home`` (parasitic coordinates included).  Every other pose is the
+solution connected to it by continuation along the straight segment from the
+home pose's independent coordinates (forward kinematics: the home actuator
+values) to the target: K steps, each a tangent predictor and Newton
+corrector; a step is refused when Newton does not converge, the correction is
+larger than half the predicted step (a jump to another branch) or the
+Jacobian's orientation flips (``det(Fu_prev^T Fu) <= 0``: a singularity was
+crossed).  Points refused with K = 4 are redone with 16, then 64 steps; where
+every attempt is refused the answer is NaN (never another branch's numbers).
+A result is a solution when ``max |F| <= TOL L`` (L the length scale).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .chain_poe import chain_poe, leg_rows, lsq
+from .poses import frames, rate_map, twist_columns
+
+__all__ = ["TOL", "STEPS", "full_rate_map", "flat_constants", "take", "ik_system", "fk_system", "newton",
+           "continuation"]
+
+#: a solution's residual, relative to the length scale
+TOL = 1e-11
+#: the residual Newton polishes a solution to, relative to the length scale
+POLISH = 1e-14
+#: the continuation's step counts, tried in turn for the points refused
+STEPS = (4, 16, 64)
+_KEYS = ("axis", "point", "side", "offset", "home", "end", "P")
+_BASE = ("A", "P", "U", "R0", "S0", "La", "Lr", "centre", "fixed")
+
+
+def full_rate_map(spec, fr) -> np.ndarray:
+    """S (..., 6, n) with xi = S xdot for every coordinate of the pose type."""
+    S = rate_map(spec, fr)
+    if S is not None:
+        return S
+    shape = fr.origin.shape[:-1]
+    out = np.zeros(shape + (6, spec.dof))
+    for j, c in enumerate(twist_columns(spec)):
+        out[..., c, j] = 1.0
+    return out
+
+
+def _gather(a, S, didx):
+    a = np.asarray(a, dtype=float)
+    D = int(np.prod(S)) if S else 1
+    a = np.broadcast_to(a, tuple(S) + a.shape[len(S):])
+    return a.reshape((D,) + a.shape[len(S):])[didx]
+
+
+def flat_constants(cc, didx) -> dict:
+    """The constants of each point of a flat batch (design index didx (B,))."""
+    S = cc.base.shape
+    legs = []
+    for leg in cc.legs:
+        d = {k: _gather(getattr(leg, k), S, didx) for k in _KEYS}
+        d.update(codes=leg.codes, closure=leg.closure, act=leg.act)
+        legs.append(d)
+    C = cc.base
+    out = {"legs": legs, "length": _gather(cc.length, S, didx), "kind": C.kind}
+    for k in _BASE:
+        out["b_" + k] = _gather(getattr(C, k), S, didx)
+    return out
+
+
+def take(fc: dict, idx) -> dict:
+    out = {"legs": [{k: (v[idx] if isinstance(v, np.ndarray) else v) for k, v in leg.items()} for leg in fc["legs"]],
+           "kind": fc["kind"]}
+    for k, v in fc.items():
+        if k not in ("legs", "kind"):
+            out[k] = v[idx]
+    return out
+
+
+def _pose(spec, fc, X):
+    fr = frames(spec, X, fc["b_centre"], fc["b_fixed"])
+    return fr, full_rate_map(spec, fr)
+
+
+def ik_system(desc, fc, u, p):
+    """F (B, m), Fu (B, m, nu), Fp (B, m, n_ind) of the inverse problem."""
+    spec = desc.pose
+    ind, par = spec.independent_index, spec.parasitic_index
+    B = u.shape[0]
+    X = np.zeros((B, spec.dof))
+    X[:, list(ind)] = p
+    X[:, list(par)] = u[:, u.shape[1] - len(par):]
+    fr, S = _pose(spec, fc, X)
+    Fs, Fus, Fps = [], [], []
+    off = 0
+    nu = u.shape[1]
+    for leg in fc["legs"]:
+        k = len(leg["codes"])
+        ch = chain_poe(leg, u[:, off:off + k])
+        f, Ft, Fx = leg_rows(leg, ch, fr.R, fr.origin, fc["length"])
+        Fu = np.zeros((B, f.shape[1], nu))
+        Fu[:, :, off:off + k] = Ft
+        Fu[:, :, nu - len(par):] = Fx @ S[:, :, list(par)]
+        Fs.append(f)
+        Fus.append(Fu)
+        Fps.append(Fx @ S[:, :, list(ind)])
+        off += k
+    return np.concatenate(Fs, 1), np.concatenate(Fus, 1), np.concatenate(Fps, 1)
+
+
+def _targets(fc, i, q):
+    """Shorthand leg i: actuated point a, da/dq, squared length and its q-derivative."""
+    kind = int(fc["kind"][i])
+    A = fc["b_A"][:, i]
+    if kind == 0:
+        U = fc["b_U"][:, i]
+        return A + q[:, None] * U, U, fc["b_Lr"][:, i] ** 2, 0.0 * q
+    if kind == 1:
+        La = fc["b_La"][:, i][:, None]
+        c, s = np.cos(q)[:, None], np.sin(q)[:, None]
+        R0, S0 = fc["b_R0"][:, i], fc["b_S0"][:, i]
+        return A + La * (c * R0 + s * S0), La * (-s * R0 + c * S0), fc["b_Lr"][:, i] ** 2, 0.0 * q
+    return A, 0.0 * A, q * q, 2.0 * q
+
+
+def fk_system(desc, fc, u, p):
+    """F, Fu, Fp of the forward problem: u = (passive joint values, whole pose),
+    p the actuator values in the description's order."""
+    spec = desc.pose
+    B = u.shape[0]
+    n = spec.dof
+    X = u[:, u.shape[1] - n:]
+    fr, S = _pose(spec, fc, X)
+    col = {(src, i): j for j, (_, src, i) in enumerate(desc.actuators)}
+    nu = u.shape[1]
+    Fs, Fus, Fps = [], [], []
+    off = 0
+    for li, leg in enumerate(fc["legs"]):
+        k = len(leg["codes"])
+        a = leg["act"]
+        npas = k - (a is not None)
+        th = u[:, off:off + npas]
+        if a is not None:
+            qa = p[:, col[("chain", li)]] - leg["offset"][:, a]
+            th = np.concatenate([th[:, :a], qa[:, None], th[:, a:]], 1)
+        ch = chain_poe(leg, th)
+        f, Ft, Fx = leg_rows(leg, ch, fr.R, fr.origin, fc["length"])
+        Fu = np.zeros((B, f.shape[1], nu))
+        Fp = np.zeros((B, f.shape[1], p.shape[1]))
+        keep = [j for j in range(k) if j != a]
+        Fu[:, :, off:off + npas] = Ft[:, :, keep]
+        Fu[:, :, nu - n:] = Fx @ S
+        if a is not None:
+            Fp[:, :, col[("chain", li)]] = Ft[:, :, a]
+        Fs.append(f)
+        Fus.append(Fu)
+        Fps.append(Fp)
+        off += npas
+    r = np.einsum("bjk,bik->bij", fr.R, fc["b_P"])
+    L = fc["length"]
+    for i in range(len(fc["kind"])):
+        j = col[("leg", i)]
+        a, t, L2, dL2 = _targets(fc, i, p[:, j])
+        d = fr.origin + r[:, i] - a
+        f = (np.sum(d * d, -1) - L2) / (2 * L)
+        Fxi = np.concatenate([d, np.cross(r[:, i], d)], -1) / L[:, None]
+        Fu = np.zeros((B, 1, nu))
+        Fu[:, 0, nu - n:] = np.einsum("bk,bkj->bj", Fxi, S)
+        Fp = np.zeros((B, 1, p.shape[1]))
+        Fp[:, 0, j] = (-2.0 * np.sum(d * t, -1) - dL2) / (2 * L)
+        Fs.append(f[:, None])
+        Fus.append(Fu)
+        Fps.append(Fp)
+    return np.concatenate(Fs, 1), np.concatenate(Fus, 1), np.concatenate(Fps, 1)
+
+
+def newton(fun, u, p, length, iters: int = 8, tol: float = TOL, damped: bool = False, target: float = POLISH):
+    """Newton (Gauss-Newton) on fun(u, p) from u (B, nu): (u, converged (B,),
+    (F, Fu, Fp) at u); it iterates while ``max |F| > target L`` and a point has
+    converged when ``max |F| <= tol L``; ``damped``: halve a step while the
+    residual grows."""
+    u = np.array(u, dtype=float)
+    with np.errstate(all="ignore"):
+        sys = fun(u, p)
+        res = np.max(np.abs(sys[0]), axis=-1)
+        for _ in range(iters):
+            conv = res <= min(tol, target) * length
+            if np.all(conv | ~np.isfinite(res)):
+                break
+            du = np.where(conv[:, None], 0.0, lsq(sys[1], sys[0]))
+            step = np.ones(len(u))
+            un = u - du
+            sn = fun(un, p)
+            rn = np.max(np.abs(sn[0]), axis=-1)
+            for _h in range(12 if damped else 0):
+                worse = ~(rn <= res) & ~conv & np.all(np.isfinite(du), axis=-1)
+                if not np.any(worse):
+                    break
+                step = np.where(worse, 0.5 * step, step)
+                ut = u - step[:, None] * du
+                st = fun(ut, p)
+                rt = np.max(np.abs(st[0]), axis=-1)
+                un = np.where(worse[:, None], ut, un)
+                sn = tuple(np.where(worse.reshape((-1,) + (1,) * (x.ndim - 1)), y, x) for x, y in zip(sn, st))
+                rn = np.where(worse, rt, rn)
+            u, sys, res = un, sn, rn
+        conv = res <= tol * length
+    return u, conv, sys
+
+
+def _norm(v, w):
+    return np.sqrt(np.sum((v * w) ** 2, axis=-1))
+
+
+def _march(fun, fc, u0, p0, p1, K, weights):
+    """One continuation with K steps for every point; (u, good)."""
+    L = fc["length"]
+    u = u0.copy()
+    good = np.all(np.isfinite(u0), axis=-1) & np.all(np.isfinite(p1), axis=-1)
+    with np.errstate(all="ignore"):
+        _, Fu, Fp = fun(u, p0)
+        p_prev = p0
+        for s in range(1, K + 1):
+            p = p0 + (s / K) * (p1 - p0) if s < K else p1
+            du = -lsq(Fu, np.einsum("bij,bj->bi", Fp, p - p_prev))
+            pred = u + du
+            last = s == K
+            un, conv, (_, Fun, Fpn) = newton(fun, pred, p, L, iters=8 if last else 4, tol=TOL if last else 1e-8,
+                                             target=POLISH if last else 1e-8)
+            jump = _norm(un - pred, weights) > 0.5 * _norm(du, weights) + 1e-9 * L
+            G = np.swapaxes(Fu, -1, -2) @ Fun
+            G = np.where(np.all(np.isfinite(G), axis=(-1, -2))[:, None, None], G, 0.0)
+            flip = ~(np.linalg.det(G) > 0)
+            good &= conv & ~jump & ~flip & np.all(np.isfinite(un), axis=-1)
+            u = np.where(good[:, None], un, u)
+            Fu = np.where(good[:, None, None], Fun, Fu)
+            Fp = np.where(good[:, None, None], Fpn, Fp)
+            p_prev = p
+    return u, good
+
+
+def continuation(fun, fc, u0, p0, p1, weights):
+    """Solutions (B, nu) connected to (u0, p0) along the segment p0 -> p1
+    (NaN where every step count was refused) and the mask of the solved points;
+    ``fun(fc, u, p)`` is the system, ``weights`` (B, nu) scale the unknowns to
+    lengths (L for angles, 1 for lengths) in the jump test."""
+    B = len(u0)
+    out = np.full(u0.shape, np.nan)
+    ok = np.zeros(B, dtype=bool)
+    pending = np.arange(B)
+    for K in STEPS:
+        if not len(pending):
+            break
+        sub = take(fc, pending)
+        u, good = _march(lambda x, q: fun(sub, x, q), sub, u0[pending], p0[pending], p1[pending], K,
+                         weights[pending])
+        out[pending[good]] = u[good]
+        ok[pending[good]] = True
+        pending = pending[~good]
+    return out, ok
