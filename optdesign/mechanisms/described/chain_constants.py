@@ -53,6 +53,19 @@ class ChainLeg:
     def rows(self) -> int:
         return 3 if self.closure == "position" else 6
 
+    def as_dict(self, expand: int = 0) -> dict:
+        """The arrays :func:`.chain_poe.chain_poe` reads; ``expand`` axes are
+        inserted before the per-leg axes (the design shape S then broadcasts
+        against poses (..., N))."""
+        def ex(a, tail):
+            a = np.asarray(a)
+            lead = a.shape[:a.ndim - tail]
+            return a.reshape(lead + (1,) * expand + a.shape[a.ndim - tail:])
+        d = {k: ex(getattr(self, k), 2) for k in ("axis", "point", "side")}
+        d.update({k: ex(getattr(self, k), 1) for k in ("offset", "home", "end", "P")})
+        d.update(codes=self.codes, closure=self.closure, act=self.act)
+        return d
+
 
 @dataclass
 class ChainConstants:

@@ -197,8 +197,11 @@ class ChainMechanism(DescribedMechanism):
     def jacobian_twist(self, X):
         return self.jacobian(X)
 
-    def leg_state(self, X):
-        raise NotImplementedError("a chain mechanism's state is chain_state(X) (independent coordinates)")
+    def leg_state(self, Xf):
+        """The shorthand legs' state (:func:`.legs.leg_state`) at *whole* poses Xf
+        (..., N, dof of the pose type); :meth:`chain_state` takes the independent
+        coordinates."""
+        return leg_state(self.constants, self.pose_spec, Xf)
 
     def parasitic(self, X: np.ndarray) -> np.ndarray:
         """The parasitic coordinates (..., N, n_par) at independent coordinates X."""
@@ -222,6 +225,90 @@ class ChainMechanism(DescribedMechanism):
         configuration's motions, without the offsets; NaN where not reachable)."""
         core = self.state(X).core
         return [np.where(core["reachable"][..., None], t, np.nan) for t in core["theta"]]
+
+    # ------------------------------------------------------------------ screw theory
+    def home_state(self) -> dict:
+        """The home configuration of every design as (D, 1)-shaped arrays:
+        ``Xf`` (D, 1, dof), ``theta`` (list of (D, 1, k)), ``U`` (D, 1, nu, n_ind)
+        (NaN where the closures' Jacobian in the unknowns is rank deficient)."""
+        spec = self.pose_spec
+        u, ok = self.home_solution()
+        D = len(u)
+        ks, nth, npar = self._sizes()
+        home = np.asarray(spec.home, dtype=float)
+        Xf = np.broadcast_to(home, (D, spec.dof)).copy()
+        Xf[:, list(spec.parasitic_index)] = u[:, nth:]
+        fc = flat_constants(self.chain_constants, np.arange(D))
+        p = np.broadcast_to(home[list(spec.independent_index)], (D, len(spec.independent_index)))
+        with np.errstate(all="ignore"):
+            _, Fu, Fp = ik_system(self.description, fc, np.where(ok[:, None], u, 0.0), p)
+            U = -lsq(Fu, Fp)
+        offs = np.cumsum([0] + ks)
+        S = self.chain_constants.base.shape
+        shp = lambda a: a.reshape(tuple(S) + a.shape[1:]) if S else a[0]  # noqa: E731
+        return {"Xf": shp(Xf), "theta": [shp(u[:, offs[i]:offs[i + 1]]) for i in range(len(ks))], "U": shp(U),
+                "ok": shp(ok)}
+
+    def mobility(self) -> dict:
+        """The platform's mobility at the home configuration of every design:
+        ``mobility`` (S) = 6 - ``rank`` (S) of all constraint wrenches (the
+        legs' and the pose type's), ``leg_ranks`` (S + (m,)) the rank of each
+        chain leg's twist system, ``counts`` its constraint wrenches (the mode
+        over the designs), ``without`` (S + (m,)) the mobility without each leg's
+        wrenches (which leg to look at), ``pose_constraints`` the pose type's count."""
+        from .chain_screws import _rank, wrench_systems
+
+        core = self.home_state()
+        ws = wrench_systems(self, core["Xf"], core["theta"])
+        ranks = np.stack([_rank(T) for T in ws["T"]], -1) if ws["T"] else np.zeros(core["Xf"].shape[:-2] + (0,))
+        parts = [w for w in ws["Wc"]]
+        allw = np.concatenate(parts + [np.broadcast_to(ws["Wp"], ws["Wp"].shape)], -2) if parts or ws["Wp"].size \
+            else np.zeros(ranks.shape[:-1] + (0, 6))
+        rank = _rank(allw) if allw.shape[-2] else np.zeros(ranks.shape[:-1], dtype=int)
+        without = []
+        for i in range(len(parts)):
+            rest = parts[:i] + parts[i + 1:] + [ws["Wp"]]
+            W = np.concatenate(rest, -2)
+            without.append(6 - (_rank(W) if W.shape[-2] else 0))
+        return {"mobility": 6 - rank, "rank": rank, "leg_ranks": ranks, "counts": tuple(ws["counts"]),
+                "without": np.stack(without, -1) if without else ranks, "pose_constraints": ws["Wp"].shape[-2]}
+
+    def constraint_counts(self) -> tuple:
+        """Each chain leg's number of constraint wrenches at home (the most
+        frequent over the designs), used at every pose."""
+        c = self.__dict__.get("_counts")
+        if c is None:
+            r = np.asarray(self.mobility()["leg_ranks"]).reshape(-1, len(self.chain_constants.legs))
+            c = []
+            for i in range(r.shape[1]):
+                vals, n = np.unique(6 - r[:, i][r[:, i] >= 0], return_counts=True)
+                c.append(int(vals[np.argmax(n)]) if len(vals) else 0)
+            c = tuple(c)
+            self.__dict__["_counts"] = c
+        return c
+
+    def screw_jacobians(self, X) -> dict:
+        """The actuation Jacobian ``Ja`` (qdot = Ja xi), the constraint Jacobian
+        ``Jc`` (Jc xi = 0), ``Xi`` (xi = Xi xdot) and the singularity values
+        ``constraint`` and ``actuation`` at independent coordinates X
+        (:func:`.chain_screws.jacobians`, docs/lower-mobility.md)."""
+        from .chain_screws import jacobians
+
+        return jacobians(self, self.state(X).core)
+
+    def actuation_jacobian(self, X):
+        """Ja (..., N, n_act, 6): qdot = Ja xi for the platform twist xi = (v_o, omega)."""
+        return self.screw_jacobians(X)["Ja"]
+
+    def constraint_jacobian(self, X):
+        """Jc (..., N, n_c, 6): Jc xi = 0 for every twist the legs allow."""
+        return self.screw_jacobians(X)["Jc"]
+
+    def constraint_singularity(self, X):
+        """The local constraint-singularity value (..., N): sigma_(6 - n_ind) of the
+        stacked unit constraint wrenches (f, m_o / L), dimensionless, 0 where
+        the constraints lose rank (the platform gains a motion)."""
+        return self.screw_jacobians(X)["constraint"]
 
     # ------------------------------------------------------------------ forward kinematics
     def forward(self, Q: np.ndarray, X0=None) -> np.ndarray:
@@ -284,6 +371,34 @@ class ChainMechanism(DescribedMechanism):
         return None
 
     def drawing(self, X):
+        return None
+
+    # ------------------------------------------------------------------ physical quantities
+    def invalid_designs(self) -> np.ndarray:
+        """As :meth:`DescribedMechanism.invalid_designs`, the chain links' masses
+        and inertias included."""
+        from .chain_checks import physical_problems
+
+        bad = np.asarray(super().invalid_designs())
+        for _, _, _, b in physical_problems(self.description, self.chain_constants):
+            bad = bad | np.asarray(b).reshape(bad.shape)
+        return bad
+
+    @classmethod
+    def check_physical(cls, parameters, designs):
+        problem = super().check_physical(parameters, designs)
+        if problem:
+            return problem
+        from .chain_checks import physical_problems
+
+        fixed = dict(cls.fixed_parameters)
+        fixed.update({k: v for k, v in parameters.items() if k in fixed})
+        for dname, design in designs.items():
+            env = {**cls.design_defaults, **fixed, **{k: v for k, v in design.items() if k in cls.design_parameters}}
+            env = {k: v for k, v in env.items() if k in cls.design_parameters or k in cls.fixed_parameters}
+            for path, what, v, b in physical_problems(cls.description, chain_constants(cls.description, env)):
+                if np.any(b):
+                    return path, f"expected {what}, got {float(np.ravel(v)[0]):.6g} ({dname})"
         return None
 
     # ------------------------------------------------------------------ config checks

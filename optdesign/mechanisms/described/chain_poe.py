@@ -121,13 +121,16 @@ def leg_rows(leg, ch: dict, Rp: np.ndarray, o: np.ndarray, length) -> tuple:
 def lsq(A: np.ndarray, b: np.ndarray, rcond: float = 1e-13) -> np.ndarray:
     """The least-squares solution of A x = b for stacks of A (..., m, n), m >= n,
     of full column rank (b (..., m) or (..., m, r)); NaN where A is not finite
-    or numerically rank deficient (|R_ii| <= rcond max |R_jj| of its QR)."""
+    or numerically rank deficient (|R_ii| <= rcond max |R_jj| of its QR), and
+    everywhere when m < n."""
     vec = b.ndim == A.ndim - 1
     B = b[..., None] if vec else b
     shape = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
     A = np.broadcast_to(A, shape + A.shape[-2:])
     B = np.broadcast_to(B, shape + B.shape[-2:])
     n = A.shape[-1]
+    if A.shape[-2] < n:              # fewer equations than unknowns: not determined
+        return np.full(shape + (n,) + (() if vec else B.shape[-1:]), np.nan)
     good = np.all(np.isfinite(A), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
     As = np.where(good[..., None, None], A, np.eye(A.shape[-2], n))
     with np.errstate(all="ignore"):

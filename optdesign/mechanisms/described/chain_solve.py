@@ -184,11 +184,19 @@ def fk_system(desc, fc, u, p):
     return np.concatenate(Fs, 1), np.concatenate(Fus, 1), np.concatenate(Fps, 1)
 
 
+def _pinv_step(A, b):
+    """The minimum-norm least-squares step (pseudo-inverse, relative cutoff 1e-10)."""
+    good = np.all(np.isfinite(A), axis=(-1, -2)) & np.all(np.isfinite(b), axis=-1)
+    P = np.linalg.pinv(np.where(good[:, None, None], A, 0.0), rcond=1e-10)
+    return np.where(good[:, None], np.einsum("bij,bj->bi", P, np.where(good[:, None], b, 0.0)), np.nan)
+
+
 def newton(fun, u, p, length, iters: int = 8, tol: float = TOL, damped: bool = False, target: float = POLISH):
     """Newton (Gauss-Newton) on fun(u, p) from u (B, nu): (u, converged (B,),
     (F, Fu, Fp) at u); it iterates while ``max |F| > target L`` and a point has
     converged when ``max |F| <= tol L``; ``damped``: halve a step while the
-    residual grows."""
+    residual grows, with pseudo-inverse steps (the home configuration: the
+    load checks then say what is singular)."""
     u = np.array(u, dtype=float)
     with np.errstate(all="ignore"):
         sys = fun(u, p)
@@ -197,7 +205,7 @@ def newton(fun, u, p, length, iters: int = 8, tol: float = TOL, damped: bool = F
             conv = res <= min(tol, target) * length
             if np.all(conv | ~np.isfinite(res)):
                 break
-            du = np.where(conv[:, None], 0.0, lsq(sys[1], sys[0]))
+            du = np.where(conv[:, None], 0.0, _pinv_step(sys[1], sys[0]) if damped else lsq(sys[1], sys[0]))
             step = np.ones(len(u))
             un = u - du
             sn = fun(un, p)
