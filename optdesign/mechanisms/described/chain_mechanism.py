@@ -20,6 +20,7 @@ from .chain_constants import SLIDE, ChainConstants, chain_constants
 from .chain_poe import lsq
 from .chain_solve import continuation, fk_system, flat_constants, ik_system, newton
 from .legs import leg_state
+from .chain_dynamics import ChainDynamics
 from .mechanism import DescribedMechanism
 
 __all__ = ["ChainMechanism"]
@@ -27,7 +28,7 @@ __all__ = ["ChainMechanism"]
 _ANGLES = ("roll", "pitch", "yaw")
 
 
-class ChainMechanism(DescribedMechanism):
+class ChainMechanism(ChainDynamics, DescribedMechanism):
     """A described mechanism with chain legs and parasitic pose coordinates."""
 
     #: the parasitic pose coordinates' names (solved from the closures)
@@ -143,8 +144,8 @@ class ChainMechanism(DescribedMechanism):
         P[:, ind, :] = np.eye(len(ind))
         P[:, par, :] = U[:, nth:, :]
         shp = lambda a: a.reshape(batch + a.shape[1:])  # noqa: E731
-        Xf, P, U, u, ok = shp(Xf), shp(P), shp(U), shp(u), shp(ok)
-        st = leg_state(self.chain_constants.base, spec, np.where(ok[..., None], Xf, np.nan)) if desc.legs else None
+        Xf, P, U, u, ok, Fu = shp(Xf), shp(P), shp(U), shp(u), shp(ok), shp(Fu)
+        st = leg_state(self.chain_constants.base, spec, np.where(ok[..., None], Xf, np.nan))
         thetas, offs = [], np.cumsum([0] + ks)
         for i in range(len(ks)):
             thetas.append(u[..., offs[i]:offs[i + 1]])
@@ -167,7 +168,7 @@ class ChainMechanism(DescribedMechanism):
         reach = ok & np.all(np.isfinite(q), axis=-1) & np.all(np.isfinite(J), axis=(-1, -2))
         q = np.where(reach[..., None], q, np.nan)
         return {"X": X, "Xf": Xf, "u": u, "theta": thetas, "U": U, "P": P, "J": J, "q": q, "reachable": reach,
-                "st": st}
+                "st": st, "Fu": Fu}
 
     def kinematic_core(self, X):
         return self.chain_state(X)
@@ -409,3 +410,4 @@ class ChainMechanism(DescribedMechanism):
         from .chain_checks import check_designs
 
         return check_designs(cls, parameters, designs)
+
