@@ -15,7 +15,7 @@ from optdesign.config import load_config
 from optdesign.evaluate import build
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = {"prs3.yaml": ("reference", [0.03, 0.15, 0.15])}
+CASES = {"prs3.yaml": ("reference", [0.03, 0.15, 0.15]), "upu3.yaml": ("reference", [0.08, 0.08, 0.08])}
 
 
 @pytest.fixture(scope="module", params=sorted(CASES))

@@ -16,7 +16,7 @@ pytest.importorskip("mujoco")
 from optdesign.mechanisms.described import mujoco as mv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = {"prs3.yaml": ("reference", 0.03, 0.15)}
+CASES = {"prs3.yaml": ("reference", 0.03, 0.15), "upu3.yaml": ("reference", 0.05, 0.0)}
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
