@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from .chain_constants import chain_constants
 from .checks import _rank, _trees, _why, leg_geometry
 from .expr import first_problem
 
@@ -211,13 +212,13 @@ def _parametrization(mech, dname):
 
 def _actuation(mech, dname):
     spec = mech.pose_spec
-    home = np.asarray(spec.home, dtype=float)[list(spec.independent_index)][None]
+    home = np.asarray(mech.home_coordinates(), dtype=float).reshape(1, -1)
     J = mech.jacobian(home).reshape(-1, *mech.jacobian(home).shape[-2:])[0]
     n = J.shape[-1]
     if _rank(J) == n:
         return None
     rng = np.random.default_rng(12345)
-    roles = [spec.roles[i] for i in spec.independent_index]
+    roles = [spec.roles[i] for i in spec.independent_index] if spec.cmap is None else ["x"] * n
     span = np.array([0.01 if r in ("x", "y", "z") else 0.02 for r in roles])
     X = home + span * rng.uniform(-1, 1, (8, len(span)))
     with np.errstate(all="ignore"):
@@ -248,3 +249,37 @@ def physical_problems(desc, cc):
                 bad = ~ok | (lam[..., 0] < -1e-12 * np.max(np.abs(lam), axis=-1))
             out.append((f"{js.path}.inertia", "a positive semi-definite inertia (kg m^2)", lam[..., 0], bad))
     return out
+
+
+class ChainChecks:
+    """The physical and load-time checks of :class:`.chain_mechanism.ChainMechanism` (a mixin)."""
+
+    def invalid_designs(self) -> np.ndarray:
+        """As :meth:`DescribedMechanism.invalid_designs`, the chain links' masses
+        and inertias included."""
+        bad = np.asarray(super().invalid_designs())
+        for _, _, _, b in physical_problems(self.description, self.chain_constants):
+            bad = bad | np.asarray(b).reshape(bad.shape)
+        return bad
+
+    @classmethod
+    def check_physical(cls, parameters, designs):
+        problem = super().check_physical(parameters, designs)
+        if problem:
+            return problem
+        fixed = dict(cls.fixed_parameters)
+        fixed.update({k: v for k, v in parameters.items() if k in fixed})
+        for dname, design in designs.items():
+            env = {**cls.design_defaults, **fixed, **{k: v for k, v in design.items() if k in cls.design_parameters}}
+            env = {k: v for k, v in env.items() if k in cls.design_parameters or k in cls.fixed_parameters}
+            for path, what, v, b in physical_problems(cls.description, chain_constants(cls.description, env)):
+                if np.any(b):
+                    return path, f"expected {what}, got {float(np.ravel(v)[0]):.6g} ({dname})"
+        return None
+
+    # ------------------------------------------------------------------ config checks
+    @classmethod
+    def check_config(cls, parameters, designs):
+        """(key path, message) of the first problem of a chain description with
+        the config's designs (:mod:`.chain_checks`), else None."""
+        return check_designs(cls, parameters, designs)

@@ -97,6 +97,25 @@ def _closure_bias(mech, core, legs, fr, xi, sigma):
     return np.concatenate(hs, -1)
 
 
+def unknowns_bias(mech, core, legs, fr, xi, sigma, V):
+    """(uddot, xf_ddot) at zero accelerations of the independent coordinates: the
+    unknowns' (joint values, parasitic coordinates) and the whole pose's second
+    derivatives; with a coordinate map the mapped pose coordinates accelerate by
+    ``xb_k = v^T H_k v`` (H_k the Hessian of the map's k-th expression)."""
+    spec = mech.pose_spec
+    par = list(spec.parasitic_index)
+    ind = list(spec.independent_index)
+    nth = sum(leg.k for leg in mech.chain_constants.legs)
+    ub = -lsq(core["Fu"], _closure_bias(mech, core, legs, fr, xi, sigma))
+    xf = np.zeros(ub.shape[:-1] + (spec.dof,))
+    xf[..., par] = ub[..., nth:]
+    if core.get("H") is not None:
+        xb = np.einsum("...kij,...i,...j->...k", core["H"], V, V)
+        ub = ub + _mv(core["Ur"], xb)
+        xf = xf + _mv(core["Pr"], xb)
+    return ub, xf
+
+
 def chain_dynamics(mech, core, V=None) -> dict:
     """``M`` (..., N, n, n), ``g`` (..., N, n) and, with the rates V (..., N, n),
     ``c`` (..., N, n) and ``qddot_bias`` (the actuators' accelerations at xddot = 0),
@@ -119,9 +138,8 @@ def chain_dynamics(mech, core, V=None) -> dict:
     gval = np.asarray(C.g, dtype=float)[..., None]
     with np.errstate(all="ignore"):
         if V is not None:
-            h = _closure_bias(mech, core, legs, fr, xi, sigma)
-            ub = -lsq(core["Fu"], h)
-            xi_bias = _mv(S[..., :, par], ub[..., nth:]) + sigma
+            ub, xf_bias = unknowns_bias(mech, core, legs, fr, xi, sigma, V)
+            xi_bias = _mv(S, xf_bias) + sigma
         dyn = twist_dynamics(C, st, xi if V is not None else None)
         M = np.einsum("...ki,...kl,...lj->...ij", Xi, dyn["M"], Xi)
         g = np.einsum("...ki,...k->...i", Xi, dyn["g"])
@@ -158,6 +176,7 @@ def chain_dynamics(mech, core, V=None) -> dict:
     if V is not None:
         out["c"] = c
         out["ub"] = ub
+        out["xf_bias"] = xf_bias
     return out
 
 
@@ -244,15 +263,13 @@ def _qddot(mech, core, dyn, V, A):
     xi = np.einsum("...ij,...j->...i", S, xdf)
     sigma = rate_bias(spec, st["frames"], xdf)
     if dyn is None:
-        legs, nth, _ = _legs(mech, core, V)
+        legs, _, _ = _legs(mech, core, V)
         with np.errstate(all="ignore"):
-            ub = -lsq(core["Fu"], _closure_bias(mech, core, legs, st["frames"], xi, sigma))
+            ub, xf = unknowns_bias(mech, core, legs, st["frames"], xi, sigma, V)
     else:
-        ub = dyn["ub"]
-    nth = sum(leg.k for leg in mech.chain_constants.legs)
-    par = list(spec.parasitic_index)
+        ub, xf = dyn["ub"], dyn["xf_bias"]
     udd = np.einsum("...ij,...j->...i", core["U"], A) + ub
-    xidot = np.einsum("...ij,...j->...i", S @ core["P"], A) + np.einsum("...ij,...j->...i", S[..., :, par], ub[..., nth:]) + sigma
+    xidot = np.einsum("...ij,...j->...i", S, np.einsum("...ij,...j->...i", core["P"], A) + xf) + sigma
     qb = twist_dynamics(mech.constants, st, xi)["qddot_bias"]
     out = []
     offs = np.cumsum([0] + [leg.k for leg in mech.chain_constants.legs])

@@ -20,15 +20,17 @@ from .chain_constants import SLIDE, ChainConstants, chain_constants
 from .chain_poe import lsq
 from .chain_solve import continuation, fk_system, flat_constants, ik_system, newton
 from .legs import leg_state
+from .chain_checks import ChainChecks
 from .chain_dynamics import ChainDynamics
+from .chain_maps import coordinate_map, home_coordinates, unmap
 from .mechanism import DescribedMechanism
 
-__all__ = ["ChainMechanism"]
+__all__ = ["ChainMechanism", "chain_attributes"]
 
 _ANGLES = ("roll", "pitch", "yaw")
 
 
-class ChainMechanism(ChainDynamics, DescribedMechanism):
+class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
     """A described mechanism with chain legs and parasitic pose coordinates."""
 
     #: the parasitic pose coordinates' names (solved from the closures)
@@ -119,10 +121,14 @@ class ChainMechanism(ChainDynamics, DescribedMechanism):
         du/dx (..., N, nu, n_ind) of the unknowns u = (theta..., x_par); ``P`` =
         dXf/dx (..., N, dof, n_ind); ``J`` = dq/dx; ``st`` the shorthand legs'
         state at Xf (:func:`.legs.leg_state`)."""
-        X = np.asarray(X, dtype=float)
+        X = Xin = np.asarray(X, dtype=float)
         desc, spec = self.description, self.pose_spec
         ind, par = list(spec.independent_index), list(spec.parasitic_index)
         S = self.chain_constants.base.shape
+        cmap = None
+        if spec.cmap is not None:
+            cmap = self._coordinate_map(X)
+            X = cmap[0]
         batch = np.broadcast_shapes(S, X.shape[:-1])
         fc, didx = self._flat(batch)
         B = len(didx)
@@ -165,10 +171,27 @@ class ChainMechanism(ChainDynamics, DescribedMechanism):
                     Sf = full_rate_map(spec, st["frames"])
                     q[..., a] = st["q"][..., i]
                     J[..., a, :] = np.einsum("...k,...kl,...lj->...j", st["G"][..., i, :], Sf, P)
+        out = {"X": Xin, "Xf": Xf, "u": u, "theta": thetas, "U": U, "P": P, "J": J, "st": st, "Fu": Fu}
+        if cmap is not None:                      # d/d(coordinates) = d/d(pose coordinates) Df
+            Df, H = cmap[1], cmap[2]
+            out.update(Ur=U, Pr=P, H=H, Df=Df, U=U @ Df, P=P @ Df, J=J @ Df)
+            J = out["J"]
         reach = ok & np.all(np.isfinite(q), axis=-1) & np.all(np.isfinite(J), axis=(-1, -2))
-        q = np.where(reach[..., None], q, np.nan)
-        return {"X": X, "Xf": Xf, "u": u, "theta": thetas, "U": U, "P": P, "J": J, "q": q, "reachable": reach,
-                "st": st, "Fu": Fu}
+        out["q"] = np.where(reach[..., None], q, np.nan)
+        out["reachable"] = reach
+        return out
+
+    # ------------------------------------------------------------------ a declared coordinate map (chain_maps)
+    def _coordinate_map(self, X):
+        return coordinate_map(self, X)
+
+    def _unmap(self, Xr):
+        return unmap(self, Xr)
+
+    def home_coordinates(self) -> np.ndarray:
+        """The independent coordinates of the home pose, S + (n,) (the map
+        inverted where there is one: per design when it has parameters)."""
+        return home_coordinates(self)
 
     def kinematic_core(self, X):
         return self.chain_state(X)
@@ -339,6 +362,8 @@ class ChainMechanism(ChainDynamics, DescribedMechanism):
         u, ok = continuation(fun, fc, u0, qh[didx], p1, self._weights(fc, fk=True))
         X = u[:, u.shape[1] - spec.dof:][:, list(spec.independent_index)]
         X = X.reshape(batch + (X.shape[-1],))
+        if spec.cmap is not None:
+            X = self._unmap(X)
         with np.errstate(all="ignore"):
             back = self.inverse(X)
             Qb = np.broadcast_to(Q, back.shape)
@@ -347,10 +372,9 @@ class ChainMechanism(ChainDynamics, DescribedMechanism):
 
     def _home_actuators(self) -> np.ndarray:
         """The actuator values (D, n_act) of every design's home configuration."""
-        spec = self.pose_spec
-        home = np.asarray(spec.home, dtype=float)[list(spec.independent_index)]
+        home = self.home_coordinates()                     # S + (n,): a population's S ends in the pose axis
         S = self.chain_constants.base.shape
-        q = self.inverse(home[None])                       # S + (1, n_act)
+        q = self.inverse(home if S else home[None])        # S + (n_act,) or (1, n_act)
         D = int(np.prod(S)) if S else 1
         return np.broadcast_to(q, tuple(S) + q.shape[-2:]).reshape(D, -1)
 
@@ -374,40 +398,17 @@ class ChainMechanism(ChainDynamics, DescribedMechanism):
     def drawing(self, X):
         return None
 
-    # ------------------------------------------------------------------ physical quantities
-    def invalid_designs(self) -> np.ndarray:
-        """As :meth:`DescribedMechanism.invalid_designs`, the chain links' masses
-        and inertias included."""
-        from .chain_checks import physical_problems
 
-        bad = np.asarray(super().invalid_designs())
-        for _, _, _, b in physical_problems(self.description, self.chain_constants):
-            bad = bad | np.asarray(b).reshape(bad.shape)
-        return bad
-
-    @classmethod
-    def check_physical(cls, parameters, designs):
-        problem = super().check_physical(parameters, designs)
-        if problem:
-            return problem
-        from .chain_checks import physical_problems
-
-        fixed = dict(cls.fixed_parameters)
-        fixed.update({k: v for k, v in parameters.items() if k in fixed})
-        for dname, design in designs.items():
-            env = {**cls.design_defaults, **fixed, **{k: v for k, v in design.items() if k in cls.design_parameters}}
-            env = {k: v for k, v in env.items() if k in cls.design_parameters or k in cls.fixed_parameters}
-            for path, what, v, b in physical_problems(cls.description, chain_constants(cls.description, env)):
-                if np.any(b):
-                    return path, f"expected {what}, got {float(np.ravel(v)[0]):.6g} ({dname})"
-        return None
-
-    # ------------------------------------------------------------------ config checks
-    @classmethod
-    def check_config(cls, parameters, designs):
-        """(key path, message) of the first problem of a chain description with
-        the config's designs (:mod:`.chain_checks`), else None."""
-        from .chain_checks import check_designs
-
-        return check_designs(cls, parameters, designs)
-
+def chain_attributes(desc, attrs) -> dict:
+    """The class attributes a chain description sets beside :func:`.mechanism.make_class`'s:
+    the parasitic coordinates' names and, with a coordinate map, its coordinates and units."""
+    out = {"parasitic_names": tuple(desc.pose.names[i] for i in desc.pose.parasitic_index)}
+    names = attrs["pose_names"]
+    if desc.pose.coords is not None:
+        out["pose_names"] = names = desc.pose.coords
+        out["pose_units"] = dict(zip(desc.pose.coords, desc.pose.units))
+        out["angular_axes"] = tuple(c for c, u in zip(desc.pose.coords, desc.pose.units) if u == "rad")
+    out["__doc__"] = (f"Described mechanism {desc.label!r}: {len(desc.chains)} chain legs, {len(desc.legs)} "
+                      f"shorthand legs, {desc.pose.type} pose, independent {', '.join(names)}, parasitic "
+                      f"{', '.join(out['parasitic_names']) or 'none'}.")
+    return out

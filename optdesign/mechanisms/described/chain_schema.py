@@ -29,10 +29,12 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from ...checking import shorten, suggest
+from .expr import names_of
 from .schema import _CHECK, _NAME, _ZERO, _expr, _fail, _mapping, _only, _require, _turns, _vec
-from .spec import ChainSpec, JointSpec
+from .spec import ChainSpec, JointSpec, PoseSpec
 
-__all__ = ["chain_group", "JOINT_TYPES", "MAX_JOINTS"]
+__all__ = ["chain_group", "mapped_pose", "JOINT_TYPES", "MAX_JOINTS"]
 
 JOINT_TYPES = ("R", "P", "U", "S", "C", "Pa")
 MAX_JOINTS = 12
@@ -147,3 +149,40 @@ def chain_group(m: Mapping, path: str, names, counters: dict) -> list[ChainSpec]
             counters[prefix] = counters.get(prefix, 0) + 1
             names_out.append(f"{prefix}{counters[prefix]}")
     return [ChainSpec(path, names_out[i], joints, plat, tb, tp) for i, (tb, tp) in enumerate(turns)]
+
+
+def mapped_pose(m, path, names, ptype, cn, roles, fixed, centre, home, jac) -> PoseSpec:
+    """A pose whose independent coordinates are new names, each pose coordinate
+    of ``map`` an expression of them (and of the parameters)."""
+    new = m["independent"]
+    p = f"{path}.independent"
+    for i, c in enumerate(new):
+        if not isinstance(c, str) or not _NAME.match(c):
+            _fail(f"{p}[{i}]", f"expected a name of letters, digits and '_', got {shorten(c)}")
+        if c in cn or c in names:
+            _fail(f"{p}[{i}]", f"{c!r} is a pose coordinate or a parameter; a mapped coordinate needs a new name")
+    if len(set(new)) != len(new):
+        _fail(p, "the independent coordinates must differ")
+    mp = _mapping(m["map"], f"{path}.map")
+    for k in mp:
+        if k not in cn:
+            _fail(f"{path}.map.{k}", f"unknown pose coordinate{suggest(k, cn)}; expected one of {', '.join(cn)}")
+    if len(mp) != len(new):
+        _fail(f"{path}.map", f"expected {len(new)} pose coordinates (one per independent coordinate), got {len(mp)}")
+    trees = tuple(_expr(v, f"{path}.map.{k}", list(names) + list(new)) for k, v in mp.items())
+    used = set().union(*(names_of(t) for t in trees))
+    for c in new:
+        if c not in used:
+            _fail(f"{path}.map", f"the independent coordinate {c!r} appears in no expression")
+    units = {c: "1" for c in new}
+    if m.get("units") is not None:
+        um = _mapping(m["units"], f"{path}.units")
+        _only(um, f"{path}.units", set(new), what="independent coordinate")
+        for k, v in um.items():
+            units[k] = _CHECK.string(v, f"{path}.units.{k}", choices={"m", "rad", "1"})
+    if jac != "rates":
+        _fail(f"{path}.jacobian", "a pose with parasitic coordinates has the Jacobian in the independent coordinates' rates only")
+    independent = tuple(cn.index(k) for k in mp)
+    return PoseSpec(ptype, tuple(cn), roles, fixed, centre, tuple(home), jac, independent, tuple(new), trees,
+                    tuple(units[c] for c in new))
+

@@ -412,12 +412,9 @@ def make_class(desc: Description, registry_name: str) -> type[DescribedMechanism
                    f"({', '.join(sorted({leg.kind for leg in desc.legs}))}), {desc.pose.type} pose "
                    f"({', '.join(desc.pose.names)}).",
     }
-    if desc.is_chain:
-        from .chain_mechanism import ChainMechanism
+    if desc.is_chain:                       # lower mobility (optdesign.mechanisms.described.chain_mechanism)
+        from .chain_mechanism import ChainMechanism, chain_attributes
 
         base = ChainMechanism
-        attrs["parasitic_names"] = tuple(desc.pose.names[i] for i in desc.pose.parasitic_index)
-        attrs["__doc__"] = (f"Described mechanism {desc.label!r}: {len(desc.chains)} chain legs, "
-                            f"{len(desc.legs)} shorthand legs, {desc.pose.type} pose, independent "
-                            f"{', '.join(pose_names)}, parasitic {', '.join(attrs['parasitic_names']) or 'none'}.")
+        attrs.update(chain_attributes(desc, attrs))
     return DescribedMeta(f"Described_{desc.label}", (base,), attrs)

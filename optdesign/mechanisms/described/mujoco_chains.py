@@ -152,7 +152,8 @@ class ChainModel:
         core = mech.state(X).core
         if not bool(core["reachable"][0]):
             raise ValueError(f"pose {X[0].tolist()} is not reachable")
-        ub = chain_dynamics(mech, core, V)["ub"][0]
+        dyn = chain_dynamics(mech, core, V)
+        ub = dyn["ub"][0]
         U = core["U"][0]
         ud, udd = U @ V[0], U @ A[0] + ub
         fr = core["st"]["frames"]
@@ -161,8 +162,7 @@ class ChainModel:
         nth = sum(leg.k for leg in self.legs)
         par = list(spec.parasitic_index)
         xd = P @ V[0]
-        xdd = P @ A[0]
-        xdd[par] += ub[nth:]
+        xdd = P @ A[0] + dyn["xf_bias"][0]
         xi = S @ xd
         xid = S @ xdd + rate_bias(spec, fr, xd[None])[0]
         m = self.model

@@ -38,7 +38,7 @@ MAX_LEGS = 12
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,39}$")
 
 _TOP = {"name", "parameters", "pose", "platform", "gravity", "legs"}
-_POSE = {"type", "coordinates", "angles", "fixed", "centre", "home", "jacobian", "independent"}
+_POSE = {"type", "coordinates", "angles", "fixed", "centre", "home", "jacobian", "independent", "map", "units"}
 _PLATFORM = {"mass", "inertia", "centre_of_mass"}
 _PATTERN = {"angles", "unit", "split"}
 _COMMON = {"kind", "actuator", "actuators", "pattern", "base", "platform"}
@@ -173,6 +173,10 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
         p = f"{path}.independent"
         if not isinstance(ind, list) or not 1 <= len(ind) <= len(cn):
             _fail(p, f"expected a list of 1 to {len(cn)} of the pose coordinates ({', '.join(cn)}), got {tname(ind)}")
+        if m.get("map") is not None:
+            from .chain_schema import mapped_pose
+
+            return mapped_pose(m, path, names, ptype, cn, roles, fixed, centre, home, jac)
         for i, c in enumerate(ind):
             if c not in cn:
                 _fail(f"{p}[{i}]", f"unknown pose coordinate {shorten(c)}{suggest(c, cn)}; expected one of {', '.join(cn)}")
@@ -181,6 +185,9 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
         if jac != "rates":
             _fail(f"{path}.jacobian", "a pose with parasitic coordinates has the Jacobian in the independent coordinates' rates only")
         independent = tuple(cn.index(c) for c in ind)
+    for k in ("map", "units"):
+        if m.get(k) is not None:
+            _fail(f"{path}.{k}", "a coordinate map needs pose.independent (the new coordinates' names)")
     return PoseSpec(ptype, tuple(cn), roles, fixed, centre, tuple(home), jac, independent)
 
 

@@ -29,6 +29,12 @@ class PoseSpec:
     #: chain descriptions: indices (into names) of the independent coordinates, in
     #: the order given; the others are parasitic (None: every coordinate is independent)
     independent: tuple | None = None
+    #: a declared coordinate map: the independent coordinates' names (new ones), a
+    #: tree per independent pose coordinate (in ``independent``'s order) of them,
+    #: and their SI units ("m", "rad" or "1"); None: the pose coordinates themselves
+    coords: tuple | None = None
+    cmap: tuple | None = None
+    units: tuple = ()
 
     @property
     def dof(self) -> int:
