@@ -20,8 +20,9 @@ values) to the target: K steps, each a tangent predictor and Newton
 corrector; a step is refused when Newton does not converge, the correction is
 larger than half the predicted step (a jump to another branch) or the
 Jacobian's orientation flips (``det(Fu_prev^T Fu) <= 0``: a singularity was
-crossed).  Points refused with K = 4 are redone with 16, then 64 steps; where
-every attempt is refused the answer is NaN (never another branch's numbers).
+crossed).  Every point first tries one step (the tangent from home and
+Newton); points refused are redone with 4, 16, then 64 steps; where every
+attempt is refused the answer is NaN (never another branch's numbers).
 A result is a solution when ``max |F| <= TOL L`` (L the length scale).
 """
 from __future__ import annotations
@@ -39,7 +40,7 @@ TOL = 1e-11
 #: the residual Newton polishes a solution to, relative to the length scale
 POLISH = 1e-14
 #: the continuation's step counts, tried in turn for the points refused
-STEPS = (4, 16, 64)
+STEPS = (1, 4, 16, 64)
 _KEYS = ("axis", "point", "side", "offset", "home", "end", "P")
 _BASE = ("A", "P", "U", "R0", "S0", "La", "Lr", "centre", "fixed")
 
