@@ -29,21 +29,32 @@ import numpy as np
 
 from .chain_constants import PARA, ROT, SLIDE
 
-__all__ = ["rodrigues", "skew", "chain_poe", "leg_rows", "lsq"]
+__all__ = ["rodrigues", "skew", "cross", "chain_poe", "leg_rows", "lsq"]
 
 
 def skew(n: np.ndarray) -> np.ndarray:
-    z = np.zeros_like(n[..., 0])
-    return np.stack([np.stack([z, -n[..., 2], n[..., 1]], -1),
-                     np.stack([n[..., 2], z, -n[..., 0]], -1),
-                     np.stack([-n[..., 1], n[..., 0], z], -1)], -2)
+    out = np.zeros(n.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -n[..., 2], n[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = n[..., 2], -n[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -n[..., 1], n[..., 0]
+    return out
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (broadcast), as np.cross with less overhead."""
+    a, b = np.broadcast_arrays(a, b)
+    out = np.empty(a.shape)
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
 
 
 def rodrigues(a: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Rot(a, t) (..., 3, 3) for unit axes a (..., 3) and angles t (...)."""
-    K = skew(a)
+    """Rot(a, t) = cos t I + sin t skew(a) + (1 - cos t) a a^T (..., 3, 3) for unit
+    axes a (..., 3) and angles t (...)."""
     s, c = np.sin(t)[..., None, None], np.cos(t)[..., None, None]
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+    return c * np.eye(3) + s * skew(a) + (1.0 - c) * (a[..., :, None] * a[..., None, :])
 
 
 def _mv(R, v):
@@ -67,7 +78,7 @@ def chain_poe(leg, theta: np.ndarray, links: bool = False) -> dict:
         Ra = _mv(R, a)
         if code == ROT:
             cc = _mv(R, c) + p
-            tw.append(np.concatenate([np.broadcast_to(Ra, shape + (3,)), np.cross(cc, Ra)], -1))
+            tw.append(np.concatenate([np.broadcast_to(Ra, shape + (3,)), cross(cc, Ra)], -1))
             Dj = rodrigues(a, t)
             pj = c - _mv(Dj, c)
             dpa.append(np.zeros(shape + (3,)))
@@ -79,8 +90,8 @@ def chain_poe(leg, theta: np.ndarray, links: bool = False) -> dict:
         else:                                        # PARA
             Rt = rodrigues(a, t)
             s = _mv(Rt, leg["side"][..., j, :])
-            tw.append(np.concatenate([np.zeros(shape + (3,)), _mv(R, np.cross(a, s))], -1))
-            dpa.append(np.broadcast_to(_mv(R, np.cross(a, np.cross(a, s))), shape + (3,)))
+            tw.append(np.concatenate([np.zeros(shape + (3,)), _mv(R, cross(a, s))], -1))
+            dpa.append(np.broadcast_to(_mv(R, cross(a, cross(a, s))), shape + (3,)))
             Dj = np.broadcast_to(np.eye(3), shape + (3, 3))
             pj = s - leg["side"][..., j, :]
         p = _mv(R, pj) + p
@@ -103,7 +114,7 @@ def leg_rows(leg, ch: dict, Rp: np.ndarray, o: np.ndarray, length) -> tuple:
     end = ch["end"]
     f = end - b
     w, v = ch["tw"][..., :3], ch["tw"][..., 3:]
-    Ft = np.swapaxes(v + np.cross(w, end[..., None, :]), -1, -2)             # (..., 3, k)
+    Ft = np.swapaxes(v + cross(w, end[..., None, :]), -1, -2)             # (..., 3, k)
     eye = np.broadcast_to(np.eye(3), r.shape[:-1] + (3, 3))
     Fx = -np.concatenate([eye, -skew(r)], -1)                                # (..., 3, 6)
     if leg["closure"] == "position":
