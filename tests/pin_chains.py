@@ -70,7 +70,6 @@ class PinChains:
         ud, udd = U @ V[0], U @ A[0] + ub
         fr = core["st"]["frames"]
         S = full_rate_map(spec, fr)[0]
-        nth = sum(leg.k for leg in mech.chain_constants.legs)
         xd = core["P"][0] @ V[0]
         xdd = core["P"][0] @ A[0] + dyn["xf_bias"][0]
         xi, xid = S @ xd, S @ xdd + rate_bias(spec, fr, xd[None])[0]

@@ -104,7 +104,6 @@ def unknowns_bias(mech, core, legs, fr, xi, sigma, V):
     ``xb_k = v^T H_k v`` (H_k the Hessian of the map's k-th expression)."""
     spec = mech.pose_spec
     par = list(spec.parasitic_index)
-    ind = list(spec.independent_index)
     nth = sum(leg.k for leg in mech.chain_constants.legs)
     ub = -lsq(core["Fu"], _closure_bias(mech, core, legs, fr, xi, sigma))
     xf = np.zeros(ub.shape[:-1] + (spec.dof,))
@@ -127,7 +126,6 @@ def chain_dynamics(mech, core, V=None) -> dict:
     fr = st["frames"]
     S = full_rate_map(spec, fr)
     Xi = S @ core["P"]
-    par = list(spec.parasitic_index)
     if V is not None:
         V = np.broadcast_to(np.asarray(V, dtype=float), core["X"].shape[:-1] + (core["P"].shape[-1],))
         V = np.broadcast_to(V, core["P"].shape[:-2] + V.shape[-1:])

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .chain_constants import PARA, ROT, SLIDE
+from .chain_constants import ROT, SLIDE
 
 __all__ = ["rodrigues", "skew", "cross", "chain_poe", "leg_rows", "lsq"]
 

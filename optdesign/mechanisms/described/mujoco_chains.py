@@ -159,8 +159,6 @@ class ChainModel:
         fr = core["st"]["frames"]
         S = full_rate_map(spec, fr)[0]
         P = core["P"][0]
-        nth = sum(leg.k for leg in self.legs)
-        par = list(spec.parasitic_index)
         xd = P @ V[0]
         xdd = P @ A[0] + dyn["xf_bias"][0]
         xi = S @ xd
