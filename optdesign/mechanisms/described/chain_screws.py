@@ -125,7 +125,8 @@ def wrench_systems(mech, Xf, thetas, counts=None) -> dict:
             out["Wa"][i] = w
             # W o T in SI: (f; L m') o (omega; L v') = L (f . v' + m' . omega)
             out["power"][i] = L * (np.sum(w[..., :3] * Ta[..., 3:], -1) + np.sum(w[..., 3:] * Ta[..., :3], -1))
-    out["Wp"] = _scaled(pose_constraints(spec, fr.origin.shape[:-1]), L)
+    Wp = _scaled(pose_constraints(spec, fr.origin.shape[:-1]), L)
+    out["Wp"] = Wp / np.linalg.norm(Wp, axis=-1, keepdims=True) if Wp.shape[-2] else Wp
     return out
 
 
