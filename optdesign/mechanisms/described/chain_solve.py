@@ -16,13 +16,14 @@ least-squares sense (Gauss-Newton; it is consistent at a solution).
 pose's ``home`` (parasitic coordinates included).  Every other pose is the
 solution connected to it by continuation along the straight segment from the
 home pose's independent coordinates (forward kinematics: the home actuator
-values) to the target: K steps, each a tangent predictor and Newton
+values) to the target, in steps of a tangent predictor and a Newton
 corrector; a step is refused when Newton does not converge, the correction is
 larger than half the predicted step (a jump to another branch) or the
 Jacobian's orientation flips (``det(Fu_prev^T Fu) <= 0``: a singularity was
-crossed).  Every point first tries one step (the tangent from home and
-Newton); points refused are redone with 4, 16, then 64 steps; where every
-attempt is refused the answer is NaN (never another branch's numbers).
+crossed).  Each point starts with one step over the whole segment; a refused
+step is retried from the last accepted point with a quarter of the length, an
+accepted one doubles it; where the step falls below 1/256 of the segment the
+answer is NaN (never another branch's numbers).
 A result is a solution when ``max |F| <= TOL L`` (L the length scale).
 """
 from __future__ import annotations
@@ -32,15 +33,15 @@ import numpy as np
 from .chain_poe import chain_poe, leg_rows, lsq
 from .poses import frames, rate_map, twist_columns
 
-__all__ = ["TOL", "STEPS", "full_rate_map", "flat_constants", "take", "ik_system", "fk_system", "newton",
+__all__ = ["TOL", "H_MIN", "full_rate_map", "flat_constants", "take", "ik_system", "fk_system", "newton",
            "continuation"]
 
 #: a solution's residual, relative to the length scale
 TOL = 1e-11
 #: the residual Newton polishes a solution to, relative to the length scale
 POLISH = 1e-14
-#: the continuation's step counts, tried in turn for the points refused
-STEPS = (1, 4, 16, 64)
+#: the smallest step of the continuation (a share of the segment)
+H_MIN = 1.0 / 256
 _KEYS = ("axis", "point", "side", "offset", "home", "end", "P")
 _BASE = ("A", "P", "U", "R0", "S0", "La", "Lr", "centre", "fixed")
 
@@ -203,7 +204,7 @@ def newton(fun, u, p, length, iters: int = 8, tol: float = TOL, damped: bool = F
         sys = fun(u, p)
         res = np.max(np.abs(sys[0]), axis=-1)
         for _ in range(iters):
-            conv = res <= min(tol, target) * length
+            conv = res <= np.minimum(tol, target) * length
             if np.all(conv | ~np.isfinite(res)):
                 break
             du = np.where(conv[:, None], 0.0, _pinv_step(sys[1], sys[0]) if damped else lsq(sys[1], sys[0]))
@@ -231,49 +232,47 @@ def _norm(v, w):
     return np.sqrt(np.sum((v * w) ** 2, axis=-1))
 
 
-def _march(fun, fc, u0, p0, p1, K, weights):
-    """One continuation with K steps for every point; (u, good)."""
+def continuation(fun, fc, u0, p0, p1, weights):
+    """Solutions (B, nu) connected to (u0, p0) along the segment p0 -> p1 and the
+    mask of the solved points (NaN elsewhere); ``fun(fc, u, p)`` is the system,
+    ``weights`` (B, nu) scale the unknowns to lengths (L for angles, 1 for
+    lengths) in the jump test.
+
+    Each point walks from t = 0 to 1 with its own step h (first 1): a tangent
+    predictor and Newton; an accepted step doubles h (at most to the rest of
+    the segment), a refused one divides it by 4 and is retried from the last
+    accepted point; a point whose h falls below ``H_MIN`` is refused."""
+    B = len(u0)
+    u = np.array(u0, dtype=float)
     L = fc["length"]
-    u = u0.copy()
-    good = np.all(np.isfinite(u0), axis=-1) & np.all(np.isfinite(p1), axis=-1)
+    t, h = np.zeros(B), np.ones(B)
+    active = np.all(np.isfinite(u0), axis=-1) & np.all(np.isfinite(p1), axis=-1)
+    ok = np.zeros(B, dtype=bool)
     with np.errstate(all="ignore"):
-        _, Fu, Fp = fun(u, p0)
-        p_prev = p0
-        for s in range(1, K + 1):
-            p = p0 + (s / K) * (p1 - p0) if s < K else p1
-            du = -lsq(Fu, np.einsum("bij,bj->bi", Fp, p - p_prev))
-            pred = u + du
-            last = s == K
-            un, conv, (_, Fun, Fpn) = newton(fun, pred, p, L, iters=8 if last else 4, tol=TOL if last else 1e-8,
-                                             target=POLISH if last else 1e-8)
-            jump = _norm(un - pred, weights) > 0.5 * _norm(du, weights) + 1e-9 * L
-            G = np.swapaxes(Fu, -1, -2) @ Fun
+        _, Fu, Fp = fun(fc, u, p0)
+        while np.any(active):
+            i = np.flatnonzero(active)
+            sub = take(fc, i)
+            tn = np.minimum(t[i] + h[i], 1.0)
+            last = tn >= 1.0
+            d = p1[i] - p0[i]
+            p = np.where(last[:, None], p1[i], p0[i] + tn[:, None] * d)
+            du = -lsq(Fu[i], np.einsum("bij,bj->bi", Fp[i], (tn - t[i])[:, None] * d))
+            pred = u[i] + du
+            tol = np.where(last, TOL, 1e-8)
+            un, conv, (_, Fun, Fpn) = newton(lambda x, q: fun(sub, x, q), pred, p, L[i], tol=tol,
+                                             target=np.where(last, POLISH, 1e-8))
+            jump = _norm(un - pred, weights[i]) > 0.5 * _norm(du, weights[i]) + 1e-9 * L[i]
+            G = np.swapaxes(Fu[i], -1, -2) @ Fun
             G = np.where(np.all(np.isfinite(G), axis=(-1, -2))[:, None, None], G, 0.0)
             flip = ~(np.linalg.det(G) > 0)
-            good &= conv & ~jump & ~flip & np.all(np.isfinite(un), axis=-1)
-            u = np.where(good[:, None], un, u)
-            Fu = np.where(good[:, None, None], Fun, Fu)
-            Fp = np.where(good[:, None, None], Fpn, Fp)
-            p_prev = p
-    return u, good
-
-
-def continuation(fun, fc, u0, p0, p1, weights):
-    """Solutions (B, nu) connected to (u0, p0) along the segment p0 -> p1
-    (NaN where every step count was refused) and the mask of the solved points;
-    ``fun(fc, u, p)`` is the system, ``weights`` (B, nu) scale the unknowns to
-    lengths (L for angles, 1 for lengths) in the jump test."""
-    B = len(u0)
-    out = np.full(u0.shape, np.nan)
-    ok = np.zeros(B, dtype=bool)
-    pending = np.arange(B)
-    for K in STEPS:
-        if not len(pending):
-            break
-        sub = take(fc, pending)
-        u, good = _march(lambda x, q: fun(sub, x, q), sub, u0[pending], p0[pending], p1[pending], K,
-                         weights[pending])
-        out[pending[good]] = u[good]
-        ok[pending[good]] = True
-        pending = pending[~good]
-    return out, ok
+            acc = conv & ~jump & ~flip & np.all(np.isfinite(un), axis=-1)
+            ia = i[acc]
+            u[ia], Fu[ia], Fp[ia], t[ia] = un[acc], Fun[acc], Fpn[acc], tn[acc]
+            h[ia] = np.minimum(2.0 * h[ia], 1.0)
+            ok[i[acc & last]] = True
+            active[i[acc & last]] = False
+            ir = i[~acc]
+            h[ir] = 0.25 * h[ir]
+            active[ir[h[ir] < H_MIN]] = False
+    return np.where(ok[:, None], u, np.nan), ok
