@@ -74,17 +74,53 @@ def flat_constants(cc, didx) -> dict:
         d.update(codes=leg.codes, closure=leg.closure, act=leg.act)
         legs.append(d)
     C = cc.base
-    out = {"legs": legs, "length": _gather(cc.length, S, didx), "kind": C.kind}
+    out = {"legs": legs, "length": _gather(cc.length, S, didx), "kind": C.kind, "groups": _groups(cc.legs, legs)}
     for k in _BASE:
         out["b_" + k] = _gather(getattr(C, k), S, didx)
     return out
 
 
+def _groups(specs, legs) -> list:
+    """The legs with the same joints (a pattern's) stacked on an axis after the
+    batch's, so that one :func:`.chain_poe.chain_poe` call serves them all:
+    per group its legs' indices, their unknowns' columns ``cols`` (G, k) in the
+    inverse problem and ``pcols`` (G, k - 1) of the passive ones in the forward
+    problem, their closure rows ``rows`` (G, m), and the arrays (B, G, ...)."""
+    key = lambda leg: (leg.codes, leg.closure, leg.act)  # noqa: E731
+    order, off, poff, roff = {}, [], [], []
+    o = po = r = 0
+    for i, leg in enumerate(specs):
+        order.setdefault(key(leg), []).append(i)
+        off.append(o)
+        poff.append(po)
+        roff.append(r)
+        o, po, r = o + leg.k, po + leg.k - (leg.act is not None), r + leg.rows
+    out = []
+    for (codes, closure, act), idx in order.items():
+        k, m = len(codes), specs[idx[0]].rows
+        g = {"legs": idx, "codes": codes, "closure": closure, "act": act,
+             "cols": np.array([[off[i] + j for j in range(k)] for i in idx], dtype=int).reshape(len(idx), k),
+             "pcols": np.array([[poff[i] + j for j in range(k - (act is not None))] for i in idx],
+                               dtype=int).reshape(len(idx), -1),
+             "rows": np.array([[roff[i] + j for j in range(m)] for i in idx], dtype=int)}
+        for name in _KEYS:
+            g[name] = np.stack([legs[i][name] for i in idx], 1)
+        out.append(g)
+    return out
+
+
+def _take_dict(d, idx):
+    return {k: (v[idx] if isinstance(v, np.ndarray) and k not in _INDEX else v) for k, v in d.items()}
+
+
+_INDEX = ("cols", "pcols", "rows")
+
+
 def take(fc: dict, idx) -> dict:
-    out = {"legs": [{k: (v[idx] if isinstance(v, np.ndarray) else v) for k, v in leg.items()} for leg in fc["legs"]],
+    out = {"legs": [_take_dict(leg, idx) for leg in fc["legs"]], "groups": [_take_dict(g, idx) for g in fc["groups"]],
            "kind": fc["kind"]}
     for k, v in fc.items():
-        if k not in ("legs", "kind"):
+        if k not in ("legs", "kind", "groups"):
             out[k] = v[idx]
     return out
 
@@ -94,30 +130,33 @@ def _pose(spec, fc, X):
     return fr, full_rate_map(spec, fr)
 
 
+def _sizes(fc):
+    m = sum(g["rows"].size for g in fc["groups"])
+    return m
+
+
 def ik_system(desc, fc, u, p):
     """F (B, m), Fu (B, m, nu), Fp (B, m, n_ind) of the inverse problem."""
     spec = desc.pose
-    ind, par = spec.independent_index, spec.parasitic_index
-    B = u.shape[0]
+    ind, par = list(spec.independent_index), list(spec.parasitic_index)
+    B, nu = u.shape
     X = np.zeros((B, spec.dof))
-    X[:, list(ind)] = p
-    X[:, list(par)] = u[:, u.shape[1] - len(par):]
+    X[:, ind] = p
+    X[:, par] = u[:, nu - len(par):]
     fr, S = _pose(spec, fc, X)
-    Fs, Fus, Fps = [], [], []
-    off = 0
-    nu = u.shape[1]
-    for leg in fc["legs"]:
-        k = len(leg["codes"])
-        ch = chain_poe(leg, u[:, off:off + k])
-        f, Ft, Fx = leg_rows(leg, ch, fr.R, fr.origin, fc["length"])
-        Fu = np.zeros((B, f.shape[1], nu))
-        Fu[:, :, off:off + k] = Ft
-        Fu[:, :, nu - len(par):] = Fx @ S[:, :, list(par)]
-        Fs.append(f)
-        Fus.append(Fu)
-        Fps.append(Fx @ S[:, :, list(ind)])
-        off += k
-    return np.concatenate(Fs, 1), np.concatenate(Fus, 1), np.concatenate(Fps, 1)
+    m = _sizes(fc)
+    F, Fu, Fp = np.zeros((B, m)), np.zeros((B, m, nu)), np.zeros((B, m, len(ind)))
+    L = fc["length"][:, None]
+    pcols = np.arange(nu - len(par), nu)
+    for g in fc["groups"]:
+        ch = chain_poe(g, u[:, g["cols"]])
+        f, Ft, Fx = leg_rows(g, ch, fr.R[:, None], fr.origin[:, None], L)     # (B, G, m_g, ...)
+        R = g["rows"]
+        F[:, R] = f
+        Fu[:, R[:, :, None], g["cols"][:, None, :]] = Ft
+        Fu[:, R[:, :, None], pcols[None, None, :]] = Fx @ S[:, None][..., par]
+        Fp[:, R] = Fx @ S[:, None][..., ind]
+    return F, Fu, Fp
 
 
 def _targets(fc, i, q):
@@ -139,35 +178,32 @@ def fk_system(desc, fc, u, p):
     """F, Fu, Fp of the forward problem: u = (passive joint values, whole pose),
     p the actuator values in the description's order."""
     spec = desc.pose
-    B = u.shape[0]
+    B, nu = u.shape
     n = spec.dof
-    X = u[:, u.shape[1] - n:]
+    X = u[:, nu - n:]
     fr, S = _pose(spec, fc, X)
     col = {(src, i): j for j, (_, src, i) in enumerate(desc.actuators)}
-    nu = u.shape[1]
-    Fs, Fus, Fps = [], [], []
-    off = 0
-    for li, leg in enumerate(fc["legs"]):
-        k = len(leg["codes"])
-        a = leg["act"]
-        npas = k - (a is not None)
-        th = u[:, off:off + npas]
+    m = _sizes(fc)
+    Fc, Fuc, Fpc = np.zeros((B, m)), np.zeros((B, m, nu)), np.zeros((B, m, p.shape[1]))
+    L = fc["length"][:, None]
+    xcols = np.arange(nu - n, nu)
+    for g in fc["groups"]:
+        a = g["act"]
+        th = u[:, g["pcols"]]                                                  # (B, G, k - 1 or k)
         if a is not None:
-            qa = p[:, col[("chain", li)]] - leg["offset"][:, a]
-            th = np.concatenate([th[:, :a], qa[:, None], th[:, a:]], 1)
-        ch = chain_poe(leg, th)
-        f, Ft, Fx = leg_rows(leg, ch, fr.R, fr.origin, fc["length"])
-        Fu = np.zeros((B, f.shape[1], nu))
-        Fp = np.zeros((B, f.shape[1], p.shape[1]))
-        keep = [j for j in range(k) if j != a]
-        Fu[:, :, off:off + npas] = Ft[:, :, keep]
-        Fu[:, :, nu - n:] = Fx @ S
+            acols = np.array([col[("chain", i)] for i in g["legs"]])
+            qa = p[:, acols] - g["offset"][:, :, a]
+            th = np.concatenate([th[:, :, :a], qa[:, :, None], th[:, :, a:]], -1)
+        ch = chain_poe(g, th)
+        f, Ft, Fx = leg_rows(g, ch, fr.R[:, None], fr.origin[:, None], L)
+        R = g["rows"]
+        keep = [j for j in range(len(g["codes"])) if j != a]
+        Fc[:, R] = f
+        Fuc[:, R[:, :, None], g["pcols"][:, None, :]] = Ft[..., keep]
+        Fuc[:, R[:, :, None], xcols[None, None, :]] = Fx @ S[:, None]
         if a is not None:
-            Fp[:, :, col[("chain", li)]] = Ft[:, :, a]
-        Fs.append(f)
-        Fus.append(Fu)
-        Fps.append(Fp)
-        off += npas
+            Fpc[:, R, acols[:, None]] = Ft[..., a]
+    Fs, Fus, Fps = [Fc], [Fuc], [Fpc]
     r = np.einsum("bjk,bik->bij", fr.R, fc["b_P"])
     L = fc["length"]
     for i in range(len(fc["kind"])):
