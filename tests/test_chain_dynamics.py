@@ -18,14 +18,40 @@ ROOT = Path(__file__).resolve().parents[1]
 CASES = {"prs3.yaml": ("reference", [0.03, 0.15, 0.15]), "upu3.yaml": ("reference", [0.08, 0.08, 0.08])}
 
 
-@pytest.fixture(scope="module", params=sorted(CASES))
+def _mapped_prs3():
+    """The 3-PRS with a declared coordinate map (z = h, roll = asin(a), pitch = asin(b)):
+    the map's second derivatives enter c."""
+    import yaml
+
+    from optdesign.mechanisms import describe
+
+    raw = yaml.safe_load((ROOT / "configs" / "prs3.yaml").read_text())["mechanism"]
+    raw["name"] = "prs3_mapped"
+    raw["pose"] = {"type": "spatial", "independent": ["h", "a", "b"], "home": {"z": 0.25},
+                   "map": {"z": "h", "roll": "asin(a)", "pitch": "asin(b)"}, "units": {"h": "m"}}
+    return describe(raw, "prs3_mapped")(R_b=0.2, r_p=0.1, L=0.3)
+
+
+@pytest.fixture(scope="module", params=sorted(CASES) + ["prs3 mapped"])
 def case(request):
     name = request.param
+    if name == "prs3 mapped":
+        return _mapped_prs3(), trajectory([0.25, 0.0, 0.0], [0.03, 0.3, 0.3], seed=3)
     design, amp = CASES[name]
     cfg = load_config(ROOT / "configs" / name)
     mech = build(cfg, design)
     home = np.asarray(mech.pose_spec.home)[list(mech.pose_spec.independent_index)]
     return mech, trajectory(home, amp, seed=3)
+
+
+def test_mapped_coordinates_equal_the_pose_coordinates():
+    m, ref = _mapped_prs3(), build(load_config(ROOT / "configs" / "prs3.yaml"), "reference")
+    X = np.array([[0.26, 0.1, -0.2], [0.22, -0.15, 0.05]])
+    Xr = np.column_stack([X[:, 0], np.arcsin(X[:, 1]), np.arcsin(X[:, 2])])
+    assert np.max(np.abs(m.inverse(X) - ref.inverse(Xr))) < 1e-14
+    D = np.stack([np.ones(2), 1 / np.sqrt(1 - X[:, 1] ** 2), 1 / np.sqrt(1 - X[:, 2] ** 2)], -1)
+    assert np.max(np.abs(m.jacobian(X) - ref.jacobian(Xr) * D[:, None, :])) < 1e-13
+    assert np.max(np.abs(m.forward(m.inverse(X)) - X)) < 1e-11
 
 
 def test_energy_balance(case):

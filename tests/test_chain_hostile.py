@@ -60,6 +60,15 @@ CASES = [
      ["a passive leg (no actuated joint) has no actuator name"]),
     ("actuated count", lambda c: (_joints(c)[0].update(actuated=False), c["mechanism"]["legs"][0].pop("actuator")),
      "legs", ["0 actuated legs for 3 independent pose coordinates"]),
+    ("negative link mass", lambda c: _joints(c)[1].update(mass=-0.3), "legs[0].joints[1].mass",
+     ["expected a mass >= 0 kg, got -0.3"]),
+    ("C actuated true", lambda c: _joints(c)[0].update(type="C"), "legs[0].joints[0].actuated",
+     ["expected slide or turn"]),
+    ("map without new names", _set(["pose", "map"], {"z": "2 * z"}), "pose.independent[0]",
+     ["a mapped coordinate needs a new name"]),
+    ("map unused name", lambda c: c["mechanism"]["pose"].update(independent=["h", "a", "b"],
+                                                              map={"z": "h", "roll": "a", "pitch": "a"}),
+     "pose.map", ["'b' appears in no expression"]),
 ]
 
 
