@@ -15,7 +15,7 @@ from optdesign.evaluate import workspace_of
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ["p4s_paper.yaml", "ups_upr_s.yaml", "cpr_rrr.yaml", "sps_s.yaml", "p4s_legs.yaml", "sps_s_legs.yaml",
-           "gough_stewart.yaml", "delta.yaml"]
+           "gough_stewart.yaml", "delta.yaml", "prs3.yaml", "upu3.yaml", "cpr_rrr_legs.yaml", "ups_upr_s_legs.yaml"]
 
 
 def _ik(path, design, x):

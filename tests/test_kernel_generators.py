@@ -238,13 +238,24 @@ def test_the_spec_and_its_numba_arguments():
         assert G.size_of_type(numba.typeof(nt)) == s.n and G.KernelSpec.of_type(numba.typeof(cspec)) == s
 
 
-def _described_configs():
+def _described_configs(chains: bool = False):
+    """The configs with a description (with chain legs or parasitic coordinates:
+    ``chains``; those run on the numpy path only, docs/lower-mobility.md)."""
     out = []
     for p in sorted((ROOT / "configs").glob("*.yaml")):
         text = p.read_text()
         if "\nmechanism:\n" in text or text.startswith("mechanism:\n"):
-            out.append(p)
+            if (("kind: chain" in text) or ("independent:" in text)) == chains:
+                out.append(p)
     return out
+
+
+@pytest.mark.parametrize("path", _described_configs(chains=True), ids=lambda p: p.stem)
+def test_kernel_source_refuses_chain_descriptions(path, capsys):
+    from cli_helpers import run_main
+
+    rc, out, err = run_main(capsys, ["kernel-source", str(path)])
+    assert rc == 2 and out == "" and "chain legs runs on the numpy path only" in err
 
 
 @pytest.mark.parametrize("path", _described_configs(), ids=lambda p: p.stem)

@@ -50,6 +50,9 @@ def run(args) -> int:
                "reachable": ok}
         if args.kin == "ik":
             rec.update(_jacobians(mech, v))
+        par = _parasitic(mech, v if args.kin == "ik" else out[None])
+        if par is not None:
+            rec["parasitic"] = {k: (float(x) if np.isfinite(x) else None) for k, x in par.items()}
         print(json.dumps(rec))
     elif ok:
         from ..units import actuator_units, pose_unit
@@ -57,6 +60,10 @@ def run(args) -> int:
         shown = cfg.units()
         units = actuator_units(shown) if args.kin == "ik" else [pose_unit(shown, a) for a in names_out]
         print("  ".join(f"{n} = {x:.12g}" + ("" if u == "1" else f" {u}") for n, x, u in zip(names_out, out, units)))
+        par = _parasitic(mech, v if args.kin == "ik" else out[None])
+        if par is not None:
+            print("parasitic: " + "  ".join(f"{n} = {x:.12g} {'rad' if n in _angle_names(mech) else 'm'}"
+                                            for n, x in par.items()))
     else:
         what = "this pose" if args.kin == "ik" else "these actuator values"
         print(f"unreachable: no real solution for {what} ({design} design)")
@@ -84,3 +91,19 @@ def _jacobians(mech, v) -> dict:
         out["jacobian_angular_velocity"] = _rows(own)
     return out
 
+
+
+def _parasitic(mech, x):
+    """{name: value} of the parasitic pose coordinates at independent coordinates
+    x (1, dof) (chain mechanisms, docs/lower-mobility.md), or None."""
+    names = getattr(mech, "parasitic_names", ())
+    if not names:
+        return None
+    with np.errstate(all="ignore"):
+        vals = mech.parasitic(x)[0]
+    return dict(zip(names, vals))
+
+
+def _angle_names(mech) -> set:
+    spec = mech.pose_spec
+    return {n for n, r in zip(spec.names, spec.roles) if r in ("roll", "pitch", "yaw")}

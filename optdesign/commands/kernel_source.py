@@ -48,6 +48,9 @@ def run(args) -> int:
     name = cfg.mechanism.split("@")[0]
     src = mech.kernel_source(f"the mechanism {name} of {cfg.source}")
     if src is None:
+        if getattr(getattr(mech, "description", None), "is_chain", False):
+            raise UsageError(f"{cfg.source}: mechanism: {name} has no generated kernel (a description with chain "
+                             "legs runs on the numpy path only, docs/lower-mobility.md)")
         raise UsageError(f"{cfg.source}: mechanism: {name} has no generated kernel (kernel-source applies to "
                          "mechanisms given as a description; this one's compiled path, if any, is hand-written)")
     if args.out is None:

@@ -76,10 +76,14 @@ class UpsUprS(Mechanism):
     actuator_names = ("q2", "q3")
     parameters = tuple(Param(k, "length", v, design=True, low=0.0, low_open=True, doc=doc) for k, v, doc in (
         ("R", PAPER_PARAMETERS["R"], "distance from the centre S to the platform joints"),
-        ("a1", PAPER_PARAMETERS["a1"], "base offset of the UPS leg"),
-        ("a2", PAPER_PARAMETERS["a2"], "base offset of the UPR leg"),
-        ("b1", PAPER_PARAMETERS["b1"], "platform offset of the UPS leg"),
-        ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPR leg")))
+        ("a1", PAPER_PARAMETERS["a1"], "base offset of the UPR leg (A2 = (a1, 0, 0))"),
+        ("a2", PAPER_PARAMETERS["a2"], "base offset of the UPS leg (A3 = (0, a2, 0))"),
+        ("b1", PAPER_PARAMETERS["b1"], "platform offset of the UPR leg (B2)"),
+        ("b2", PAPER_PARAMETERS["b2"], "platform offset of the UPS leg (B3)"))) + (
+        Param("model", "switch", "printed", choices={"printed": 0.0, "rigid": 1.0},
+              doc="printed: section 2 as printed (eq. 13, phi = 0; not a rigid motion); rigid: the mechanism of "
+                  "section 1.1 (Q = Rx(alpha) Ry(beta), B1 fixed on the platform, the yaw parasitic), "
+                  "optdesign/mechanisms/ups_upr_s_fk.py"),)
     pose_units = {"s_theta": "1", "s_psi": "1"}
     example = {  # configs/ups_upr_s_opt.yaml: +-40 % around the paper's structure parameters
         "design_variables": {"R": {"value": 260, "bounds": [160, 360], "unit": "mm"},
@@ -93,6 +97,13 @@ class UpsUprS(Mechanism):
     }
     supported_indices = ("isotropy", "dexterity", "manipulability")
     angular_axes = ()
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        m = np.unique(np.asarray(self.model, dtype=float))
+        if m.size != 1 or m[0] not in (0.0, 1.0):
+            raise ValueError(f"ups_upr_s: model must be 0 (printed) or 1 (rigid), got {self.model}")
+        self.rigid = bool(m[0] == 1.0)
 
     # ------------------------------------------------------------------ geometry
     def legs(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -121,6 +132,8 @@ class UpsUprS(Mechanism):
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """Actuator lengths (q2, q3) (eq. 12) at poses X (..., N, 2); NaN outside
         the domain |sin| <= 1."""
+        if self.rigid:
+            return _fk.rigid_inverse(self, X)
         g = self.legs(X)
         return np.stack([np.linalg.norm(g["v2"], axis=-1), np.linalg.norm(g["v3"], axis=-1)], -1)
 
@@ -130,6 +143,8 @@ class UpsUprS(Mechanism):
         d q_i / d theta = v_i . dv_i/dtheta / q_i, and d/d(sin theta) =
         (1 / cos theta) d/dtheta (infinite at cos = 0, where the sine is not a
         coordinate)."""
+        if self.rigid:
+            return _fk.rigid_jacobian(self, X)
         g = self.legs(X)
         q2 = np.linalg.norm(g["v2"], axis=-1)
         q3 = np.linalg.norm(g["v3"], axis=-1)
@@ -156,7 +171,9 @@ class UpsUprS(Mechanism):
         Q = np.atleast_2d(q)
         if self.design_shape != ():
             raise ValueError("forward_all expects a single design")
-        if method == "ga":
+        if self.rigid:
+            out = [_fk.rigid_roots(self, qq) for qq in Q]
+        elif method == "ga":
             out = [ga_forward(self, qq, **kw)[None, :] for qq in Q]
         elif method == "certified":
             res = solve_all(self, Q, **kw)
@@ -171,13 +188,21 @@ class UpsUprS(Mechanism):
         nearest the home pose theta = psi = 0 in that sense; NaN where there is none.
         Every Table 2 answer of the paper is in this mode (see docs/reproduction.md)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        roots = solve_all(self, Q.reshape(-1, 2)).roots
+        roots = ([_fk.rigid_roots(self, q) for q in Q.reshape(-1, 2)] if self.rigid
+                 else solve_all(self, Q.reshape(-1, 2)).roots)
         out = np.full((len(roots), 2), np.nan)
         for i, r in enumerate(roots):
             if len(r):
                 score = np.sqrt(1 - r[:, 0] ** 2) * np.sqrt(1 - r[:, 1] ** 2)
                 out[i] = r[np.argmax(score)]
         return out.reshape(Q.shape)
+
+    def yaw(self, X: np.ndarray) -> np.ndarray:
+        """The rotation phi about z of Q = Rz(phi) Ry(theta) Rx(psi) at poses X: 0 in
+        the printed model (section 1.2's conclusion), parasitic in the rigid one."""
+        if self.rigid:
+            return _fk.rigid_yaw(X)
+        return np.zeros(np.broadcast_shapes(np.shape(X)[:-1], self.design_shape))
 
     # ------------------------------------------------------------------ eq. 6
     def constraint_residuals(self, X: np.ndarray, phi=0.0, platform: str = "rigid") -> np.ndarray:
@@ -269,9 +294,18 @@ def symbolic_model():
         P = p["R"] * ca.vertcat(s * d, s * t, c)
         v2 = P + ca.vertcat(p["b1"] * c - p["a1"], 0, -p["b1"] * s)
         v3 = P + ca.vertcat(p["b2"] * s * t, p["b2"] * d - p["a2"], p["b2"] * c * t)
-        return ca.vertcat(q[0] ** 2 - ca.sumsqr(v2), q[1] ** 2 - ca.sumsqr(v3))
+        printed = ca.vertcat(q[0] ** 2 - ca.sumsqr(v2), q[1] ** 2 - ca.sumsqr(v3))
+        # section 1.1's rigid mechanism (optdesign/mechanisms/ups_upr_s_fk.py)
+        sa = c * t
+        al, be = ca.asin(sa), ca.atan2(s, c * d)
+        R, a1, a2, b1, b2 = (p[k] for k in ("R", "a1", "a2", "b1", "b2"))
+        rigid = ca.vertcat(q[0] ** 2 - (a1 ** 2 + b1 ** 2 + R ** 2 - 2 * a1 * (b1 * ca.cos(be) + R * ca.sin(be))),
+                           q[1] ** 2 - (a2 ** 2 + b2 ** 2 + R ** 2
+                                        - 2 * a2 * (b2 * ca.cos(al) - R * ca.sin(al) * ca.cos(be))))
+        return ca.if_else(p["model"] > 0.5, rigid, printed)
 
-    return SymbolicModel(2, 2, ("R", "a1", "a2", "b1", "b2"), closure)
+    return SymbolicModel(2, 2, ("R", "a1", "a2", "b1", "b2", "model"), closure)
 
 
 from .ups_upr_s_fk import ForwardSolution, ga_forward, solve_all  # noqa: E402,F401  (forward kinematics)
+from . import ups_upr_s_fk as _fk  # noqa: E402  (and section 1.1's rigid mechanism)

@@ -1,6 +1,8 @@
 """Forward kinematics of the UPS+UPR+S (seed paper 000): every root in the
 domain, certified (interval Krawczyk on the two trigonometric closure
-equations), and the paper's GA answer (eq. 15) for comparison."""
+equations), and the paper's GA answer (eq. 15) for comparison; and the rigid
+mechanism of section 1.1 (``UpsUprS(model="rigid")``): its inverse
+kinematics, Jacobian, parasitic yaw and closed-form forward kinematics."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -10,7 +12,8 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from .ups_upr_s import UpsUprS
 
-__all__ = ["ForwardSolution", "solve_all", "ga_forward"]
+__all__ = ["ForwardSolution", "solve_all", "ga_forward", "rigid_angles", "rigid_inverse", "rigid_jacobian", "rigid_yaw",
+           "rigid_roots"]
 
 
 # ---------------------------------------------------------------------- forward kinematics
@@ -216,3 +219,121 @@ def ga_forward(mech: "UpsUprS", q, population: int = 50, generations: int = 100,
 
 
 # ---------------------------------------------------------------------- CasADi model
+
+
+# ---------------------------------------------------------------------- the rigid mechanism of section 1.1
+# The UPS+UPR+S as the rigid mechanism of section 1.1 of seed paper 000
+# (``UpsUprS(model="rigid")``), beside the paper's printed model of section 2.
+#
+# The UPR chain (U at A2 = (a1, 0, 0) with its first axis x through A1, its
+# second axis u2 = Rx(alpha) y; P; R at B2 parallel to u2) lets the platform
+# turn by Q = Rx(alpha) Ry(beta) about the centre A1 of the S joint, and the
+# link A1B1 is fixed to the platform: B1 = Q (0, 0, R), B2 = Q (b1, 0, R),
+# B3 = Q (0, b2, R).  So
+#
+#     q2^2 = a1^2 + b1^2 + R^2 - 2 a1 (b1 cos(beta) + R sin(beta)),
+#     q3^2 = a2^2 + b2^2 + R^2 - 2 a2 (b2 cos(alpha) - R sin(alpha) cos(beta)).
+#
+# In the paper's pose coordinates (sin theta, sin psi) of Q = Rz(phi) Ry(theta)
+# Rx(psi) (eq. 1): sin(theta) = cos(alpha) sin(beta), cos(theta) sin(psi) =
+# sin(alpha), cos(theta) cos(psi) = cos(alpha) cos(beta), and the yaw phi =
+# atan2(sin(alpha) sin(beta), cos(beta)) is *not* 0: it is parasitic (the
+# paper's eq. 6-8 conclude phi = 0 from the constraint equations written with
+# eq. 13's B1, which is not on a link fixed to the platform; see
+# docs/lower-mobility.md).  The forward kinematics is in closed form: beta from
+# q2 (two roots), then alpha from q3 (two roots each), kept in the domain
+# |alpha|, |beta| <= pi / 2 (cos(theta), cos(psi) >= 0).
+
+
+def _rigid_params(mech):
+    return tuple(np.asarray(mech.params[k], float) for k in ("R", "a1", "a2", "b1", "b2"))
+
+
+def rigid_angles(X: np.ndarray) -> dict:
+    """alpha, beta and the derivatives d(alpha, beta)/d(sin theta, sin psi) at X (..., N, 2)."""
+    X = np.asarray(X, dtype=float)
+    s, t = X[..., 0], X[..., 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c = np.sqrt(np.where(np.abs(s) <= 1, 1.0 - s * s, np.nan))
+        d = np.sqrt(np.where(np.abs(t) <= 1, 1.0 - t * t, np.nan))
+        sa = c * t
+        ca = np.sqrt(1.0 - sa * sa)
+        alpha = np.arcsin(sa)
+        beta = np.arctan2(s, c * d)
+        # d alpha: sa = c t;  d beta: beta = atan2(u, v), u = s, v = c d, u^2 + v^2 = ca^2
+        da_ds, da_dt = -s / c * t / ca, c / ca
+        u, v = s, c * d
+        du = (1.0, 0.0)
+        dv = (-s / c * d, -c * t / d)
+        den = ca * ca
+        db_ds = (v * du[0] - u * dv[0]) / den
+        db_dt = (v * du[1] - u * dv[1]) / den
+    return {"alpha": alpha, "beta": beta, "sa": sa, "ca": ca, "da": (da_ds, da_dt), "db": (db_ds, db_dt)}
+
+
+def _rigid_squares(mech, a, b):
+    R, a1, a2, b1, b2 = _rigid_params(mech)
+    q2 = a1 * a1 + b1 * b1 + R * R - 2 * a1 * (b1 * np.cos(b) + R * np.sin(b))
+    q3 = a2 * a2 + b2 * b2 + R * R - 2 * a2 * (b2 * np.cos(a) - R * np.sin(a) * np.cos(b))
+    return q2, q3
+
+
+def rigid_inverse(mech, X: np.ndarray) -> np.ndarray:
+    g = rigid_angles(X)
+    q2, q3 = _rigid_squares(mech, g["alpha"], g["beta"])
+    with np.errstate(invalid="ignore"):
+        return np.stack([np.sqrt(q2), np.sqrt(q3)], -1)
+
+
+def rigid_jacobian(mech, X: np.ndarray) -> np.ndarray:
+    """d(q2, q3)/d(sin theta, sin psi) of the rigid model."""
+    R, a1, a2, b1, b2 = _rigid_params(mech)
+    g = rigid_angles(X)
+    a, b = g["alpha"], g["beta"]
+    q = rigid_inverse(mech, X)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d2_db = -2 * a1 * (-b1 * np.sin(b) + R * np.cos(b))
+        d3_da = -2 * a2 * (-b2 * np.sin(a) - R * np.cos(a) * np.cos(b))
+        d3_db = -2 * a2 * (R * np.sin(a) * np.sin(b))
+        rows = []
+        for k in range(2):
+            j2 = d2_db * g["db"][k] / (2 * q[..., 0])
+            j3 = (d3_da * g["da"][k] + d3_db * g["db"][k]) / (2 * q[..., 1])
+            rows.append((j2, j3))
+    return np.stack([np.stack([rows[0][0], rows[1][0]], -1), np.stack([rows[0][1], rows[1][1]], -1)], -2)
+
+
+def rigid_yaw(X: np.ndarray) -> np.ndarray:
+    """The parasitic yaw phi of Q = Rz(phi) Ry(theta) Rx(psi) = Rx(alpha) Ry(beta)."""
+    g = rigid_angles(X)
+    return np.arctan2(g["sa"] * np.sin(g["beta"]), np.cos(g["beta"]))
+
+
+def rigid_roots(mech, q) -> np.ndarray:
+    """Every pose (k, 2) (sin theta, sin psi) of one design with the lengths q (2,), sorted by sin theta."""
+    R, a1, a2, b1, b2 = (float(v) for v in _rigid_params(mech))
+    k2 = (a1 * a1 + b1 * b1 + R * R - q[0] ** 2) / (2 * a1)          # b1 cos(beta) + R sin(beta)
+    out = []
+    r2, b0 = np.hypot(b1, R), np.arctan2(R, b1)
+    if abs(k2) <= r2:
+        for sb in (1.0, -1.0):
+            beta = b0 + sb * np.arccos(k2 / r2)
+            beta = (beta + np.pi) % (2 * np.pi) - np.pi
+            if abs(beta) > np.pi / 2:
+                continue
+            k3 = (a2 * a2 + b2 * b2 + R * R - q[1] ** 2) / (2 * a2)   # b2 cos(alpha) - R cos(beta) sin(alpha)
+            r3, a0 = np.hypot(b2, R * np.cos(beta)), np.arctan2(-R * np.cos(beta), b2)
+            if abs(k3) > r3:
+                continue
+            for sa in (1.0, -1.0):
+                alpha = a0 + sa * np.arccos(k3 / r3)
+                alpha = (alpha + np.pi) % (2 * np.pi) - np.pi
+                if abs(alpha) > np.pi / 2:
+                    continue
+                st = np.cos(alpha) * np.sin(beta)
+                out.append((st, np.sin(alpha) / np.sqrt(1 - st * st)))
+    keep = []
+    for x in sorted(out):
+        if not any(abs(x[0] - y[0]) < 1e-12 and abs(x[1] - y[1]) < 1e-12 for y in keep):
+            keep.append(x)
+    return np.array(keep, dtype=float).reshape(-1, 2)

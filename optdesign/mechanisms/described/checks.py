@@ -24,7 +24,7 @@ import numpy as np
 
 from .expr import first_problem
 
-__all__ = ["check_designs"]
+__all__ = ["check_designs", "leg_geometry"]
 
 
 def _trees(desc):
@@ -86,6 +86,16 @@ def _geometry(cls, env, dname):
     desc = cls.description
     mech = cls(**env)
     C = mech.constants
+    problem = leg_geometry(desc, C, dname)
+    if problem:
+        return problem
+    return _closes_and_moves(mech, desc, dname)
+
+
+def leg_geometry(desc, C, dname):
+    """(key, message) of the first shorthand leg with a zero direction or axis,
+    a reference parallel to its axis, a length that is not positive or an
+    undefined outer/inner branch, else None."""
     for i, leg in enumerate(desc.legs):
         p = leg.path
         if leg.direction is not None and not np.all(np.isfinite(C.U[i])):
@@ -106,6 +116,10 @@ def _geometry(cls, env, dname):
             return f"{p}.rod", f"expected a positive rod length, got {float(C.Lr[i]):g} m (design {dname!r})"
         if leg.across is not None and not np.all(np.isfinite(C.across[i])):
             return f"{p}.rod.across", f"has zero length (design {dname!r})"
+    return None
+
+
+def _closes_and_moves(mech, desc, dname):
     home = np.asarray(desc.pose.home, dtype=float)[None]
     raw = _leg_closes(mech, home)
     if not np.all(raw):

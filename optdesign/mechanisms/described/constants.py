@@ -166,7 +166,10 @@ def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
         AC.append(_unit(_turn(vec(leg.across), tb)) if leg.across is not None else zero3)
         La.append(ev(leg.crank) if leg.crank is not None else 0.0)
         Lr.append(ev(leg.rod) if leg.rod is not None else 0.0)
-    A, P, U, R0, AC = (np.stack(v, -2) for v in (A, P, U, R0, AC))
+    if n:
+        A, P, U, R0, AC = (np.stack(v, -2) for v in (A, P, U, R0, AC))
+    else:                                   # a chain description without shorthand legs
+        A = P = U = R0 = AC = np.zeros(shape + (0, 3))
     S0 = np.cross(U, R0)
     La, Lr = per_leg(La), per_leg(Lr)
     pose = desc.pose

@@ -391,11 +391,14 @@ def make_class(desc: Description, registry_name: str) -> type[DescribedMechanism
     """A Mechanism subclass for the description, registered as ``registry_name``."""
     design = tuple(p.name for p in desc.params if p.design)
     fixed = {p.name: p.default for p in desc.params if not p.design}
+    base: type = DescribedMechanism
+    pose_names = tuple(desc.pose.names[i] for i in desc.pose.independent_index)
+    roles = tuple(desc.pose.roles[i] for i in desc.pose.independent_index)
     attrs: dict[str, Any] = {
         "name": registry_name,
         "description": desc,
         "parameters": _param_table(desc),
-        "pose_names": desc.pose.names,
+        "pose_names": pose_names,
         "actuator_names": desc.actuator_names,
         "design_parameters": design,
         "design_defaults": {p.name: p.default for p in desc.params if p.design and p.default is not None},
@@ -405,9 +408,14 @@ def make_class(desc: Description, registry_name: str) -> type[DescribedMechanism
         "nonnegative_parameters": tuple(p.name for p in desc.params if not p.design and p.kind in ("mass", "inertia")),
         "multibody_check": "optdesign.mechanisms.described.mujoco" if desc.has_dynamics else None,
         "supported_indices": KINEMATIC_INDICES + (("dynamic",) if desc.has_dynamics else ()),
-        "angular_axes": tuple(n for n, r in zip(desc.pose.names, desc.pose.roles) if r in ("roll", "pitch", "yaw")),
+        "angular_axes": tuple(n for n, r in zip(pose_names, roles) if r in ("roll", "pitch", "yaw")),
         "__doc__": f"Described mechanism {desc.label!r}: {len(desc.legs)} legs "
                    f"({', '.join(sorted({leg.kind for leg in desc.legs}))}), {desc.pose.type} pose "
                    f"({', '.join(desc.pose.names)}).",
     }
-    return DescribedMeta(f"Described_{desc.label}", (DescribedMechanism,), attrs)
+    if desc.is_chain:                       # lower mobility (optdesign.mechanisms.described.chain_mechanism)
+        from .chain_mechanism import ChainMechanism, chain_attributes
+
+        base = ChainMechanism
+        attrs.update(chain_attributes(desc, attrs))
+    return DescribedMeta(f"Described_{desc.label}", (base,), attrs)

@@ -52,8 +52,17 @@ def _rods(C, i):
     return [(k - (cnt - 1) / 2.0) * w * C.across[i] for k in range(cnt)]
 
 
+def _chains(mech) -> bool:
+    return bool(getattr(mech.description, "is_chain", False))
+
+
 def mjcf(mech) -> str:
-    """The MJCF text of one design of a described mechanism (SI units)."""
+    """The MJCF text of one design of a described mechanism (SI units); a chain
+    mechanism's is :func:`.mujoco_chains.mjcf`."""
+    if _chains(mech):
+        from .mujoco_chains import mjcf as chain_mjcf
+
+        return chain_mjcf(mech)
     C = mech.constants
     if C.shape != ():
         raise ValueError("mjcf expects a single design")
@@ -151,7 +160,15 @@ def _axis_angle(k, q):
 
 
 class DescribedModel:
-    """A compiled MuJoCo model of one design plus its joint addresses."""
+    """A compiled MuJoCo model of one design plus its joint addresses (a chain
+    mechanism gets a :class:`.mujoco_chains.ChainModel`, the same interface)."""
+
+    def __new__(cls, mech):
+        if cls is DescribedModel and _chains(mech):
+            from .mujoco_chains import ChainModel
+
+            return ChainModel(mech)
+        return super().__new__(cls)
 
     def __init__(self, mech):
         import mujoco
@@ -341,12 +358,13 @@ def smooth_trajectory(mech, t, amplitude_length=0.02, amplitude_angle=0.08, seed
     """X, V, A (N, dof): sums of two sines per coordinate around the home pose."""
     rng = np.random.default_rng(seed)
     spec = mech.pose_spec
-    dof = spec.dof
-    amp = np.array([amplitude_length if r in ("x", "y", "z") else amplitude_angle for r in spec.roles])
+    ind = spec.independent_index                 # every coordinate, but a chain mechanism's parasitic ones
+    dof = len(ind)
+    amp = np.array([amplitude_length if spec.roles[i] in ("x", "y", "z") else amplitude_angle for i in ind])
     f = rng.uniform(0.5, 2.5, (2, dof))
     ph = rng.uniform(0, 2 * np.pi, (2, dof))
     t = np.asarray(t, float)[:, None]
-    X, V, A = np.asarray(spec.home, float) + 0 * t, 0 * t, 0 * t
+    X, V, A = np.asarray(spec.home, float)[list(ind)] + 0 * t, 0 * t, 0 * t
     for j in range(2):
         w = 2 * np.pi * f[j]
         X = X + 0.5 * amp * np.sin(w * t + ph[j])

@@ -11,7 +11,7 @@ import math
 import re
 from typing import Any, Mapping
 
-from ...checking import Checker, shorten, tname
+from ...checking import Checker, shorten, suggest, tname
 from .. import DescriptionError
 from .expr import CONSTANTS, FUNCTIONS, ExprError, parse
 from .spec import Description, LegSpec, ParamDecl, PlatformSpec, PoseSpec
@@ -29,7 +29,7 @@ POSE_TYPES = {
 }
 _DEFAULT_NAMES = {"translation": ("x", "y", "z"), "planar": ("x", "y", "theta"),
                   "rotation": ("roll", "pitch", "yaw"), "spatial": ("x", "y", "z", "roll", "pitch", "yaw")}
-LEG_KINDS = ("prismatic", "revolute", "strut")
+LEG_KINDS = ("prismatic", "revolute", "strut", "chain")
 #: parameter kinds (the Param table's) and whether they are design dimensions by default
 PARAM_KINDS = {"length": True, "angle": True, "number": True, "mass": False, "inertia": False,
                "stiffness": False, "acceleration": False}
@@ -38,7 +38,7 @@ MAX_LEGS = 12
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,39}$")
 
 _TOP = {"name", "parameters", "pose", "platform", "gravity", "legs"}
-_POSE = {"type", "coordinates", "angles", "fixed", "centre", "home", "jacobian"}
+_POSE = {"type", "coordinates", "angles", "fixed", "centre", "home", "jacobian", "independent", "map", "units"}
 _PLATFORM = {"mass", "inertia", "centre_of_mass"}
 _PATTERN = {"angles", "unit", "split"}
 _COMMON = {"kind", "actuator", "actuators", "pattern", "base", "platform"}
@@ -167,7 +167,28 @@ def _pose(raw: Any, path: str, names) -> PoseSpec:
     jac = _CHECK.string(m.get("jacobian", "rates"), f"{path}.jacobian", choices={"rates", "angular_velocity"})
     if jac == "angular_velocity" and len(set(roles) & {"roll", "pitch", "yaw"}) not in (0, 3) and ptype != "planar":
         _fail(f"{path}.jacobian", "angular_velocity needs all three angles as coordinates (else J is not square)")
-    return PoseSpec(ptype, tuple(cn), roles, fixed, centre, tuple(home), jac)
+    independent = None
+    if m.get("independent") is not None:
+        ind = m["independent"]
+        p = f"{path}.independent"
+        if not isinstance(ind, list) or not 1 <= len(ind) <= len(cn):
+            _fail(p, f"expected a list of 1 to {len(cn)} of the pose coordinates ({', '.join(cn)}), got {tname(ind)}")
+        if m.get("map") is not None:
+            from .chain_schema import mapped_pose
+
+            return mapped_pose(m, path, names, ptype, cn, roles, fixed, centre, home, jac)
+        for i, c in enumerate(ind):
+            if c not in cn:
+                _fail(f"{p}[{i}]", f"unknown pose coordinate {shorten(c)}{suggest(c, cn)}; expected one of {', '.join(cn)}")
+        if len(set(ind)) != len(ind):
+            _fail(p, "the independent coordinates must differ")
+        if jac != "rates":
+            _fail(f"{path}.jacobian", "a pose with parasitic coordinates has the Jacobian in the independent coordinates' rates only")
+        independent = tuple(cn.index(c) for c in ind)
+    for k in ("map", "units"):
+        if m.get(k) is not None:
+            _fail(f"{path}.{k}", "a coordinate map needs pose.independent (the new coordinates' names)")
+    return PoseSpec(ptype, tuple(cn), roles, fixed, centre, tuple(home), jac, independent)
 
 
 # ---------------------------------------------------------------------- platform
@@ -236,9 +257,13 @@ def _bodies(m: Mapping, key: str, allowed: set, path: str, names, prefix: str) -
     return {f"{prefix}_{k}": _expr(v, f"{path}.{key}.{k}", names) for k, v in sub.items() if k not in ("length", "across")}
 
 
-def _leg_group(raw: Any, path: str, names, counters: dict, start: int) -> list[LegSpec]:
+def _leg_group(raw: Any, path: str, names, counters: dict, start: int) -> list:
     m = _mapping(raw, path)
     kind = _CHECK.choice(_require(m, "kind", path), f"{path}.kind", LEG_KINDS, "leg kind")
+    if kind == "chain":
+        from .chain_schema import chain_group
+
+        return chain_group(m, path, names, counters)
     _only(m, path, _COMMON | _KIND_KEYS[kind])
     base = _vec(_require(m, "base", path), f"{path}.base", names)
     plat = _vec(_require(m, "platform", path), f"{path}.platform", names)
@@ -321,15 +346,30 @@ def parse_description(raw: Any, path: str = "mechanism", label: str | None = Non
     if not isinstance(legs_raw, list) or not legs_raw:
         _fail(f"{path}.legs", f"expected a list of leg groups, got {tname(legs_raw)}")
     legs: list[LegSpec] = []
+    chains: list = []
+    order: list = []
     counters: dict = {}
     for i, g in enumerate(legs_raw):
-        legs += _leg_group(g, f"{path}.legs[{i}]", names, counters, len(legs))
-        if len(legs) > MAX_LEGS:
+        for leg in _leg_group(g, f"{path}.legs[{i}]", names, counters, len(legs) + len(chains)):
+            if isinstance(leg, LegSpec):
+                order.append((leg.actuator, "leg", len(legs)))
+                legs.append(leg)
+            else:
+                if leg.actuator is not None:
+                    order.append((leg.actuator, "chain", len(chains)))
+                chains.append(leg)
+        if len(legs) + len(chains) > MAX_LEGS:
             _fail(f"{path}.legs", f"more than {MAX_LEGS} legs")
-    if len(legs) != pose.dof:
+    chain_class = bool(chains) or pose.independent is not None
+    n_ind = len(pose.independent_index)
+    if chain_class and len(order) != n_ind:
+        ind = ", ".join(pose.names[i] for i in pose.independent_index)
+        _fail(f"{path}.legs", f"{len(order)} actuated legs for {n_ind} independent pose coordinates ({ind}); "
+              f"expected {n_ind}: one actuated leg per independent coordinate (passive legs have no actuated joint)")
+    if not chain_class and len(legs) != pose.dof:
         _fail(f"{path}.legs", f"{len(legs)} legs for a pose of {pose.dof} coordinates ({', '.join(pose.names)}); "
               f"expected {pose.dof}: one actuated leg per pose coordinate")
-    acts = [leg.actuator for leg in legs]
+    acts = [a for a, _, _ in order]
     dup = sorted({a for a in acts if acts.count(a) > 1})
     if dup:
         _fail(f"{path}.legs", f"actuator name {dup[0]!r} is used twice")
@@ -337,6 +377,8 @@ def parse_description(raw: Any, path: str = "mechanism", label: str | None = Non
         _fail(f"{path}.legs", f"actuator name {sorted(set(acts) & set(names))[0]!r} is also a parameter name")
     gravity = _expr(m["gravity"], f"{path}.gravity", names) if m.get("gravity") is not None else ("num", 9.81)
     has_dyn = platform.mass is not None
-    if not has_dyn and any(leg.bodies for leg in legs):
+    if not has_dyn and (any(leg.bodies for leg in legs) or any(j.body for c in chains for j in c.joints)):
         _fail(f"{path}.platform.mass", "legs have masses but the platform has none; give platform.mass (0 is allowed)")
+    if chain_class:
+        return Description(name, params, pose, platform, gravity, tuple(legs), has_dyn, tuple(chains), tuple(order))
     return Description(name, params, pose, platform, gravity, tuple(legs), has_dyn)
