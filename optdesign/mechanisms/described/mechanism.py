@@ -86,17 +86,13 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
     def constants(self) -> Constants:
         c = self.__dict__.get("_constants")
         if c is None:
-            key = self.params_key()
+            key = params_key(self)
             c = CONSTANTS.get(key)
             if c is None:
                 c = constants(self.description, self.params)
                 CONSTANTS.put(key, c)
             self.__dict__["_constants"] = c
         return c
-
-    def params_key(self) -> tuple:
-        """The key of this parameter set in the class's memory (:func:`.memo.params_key`)."""
-        return params_key(self)
 
     @property
     def pose_spec(self):

@@ -22,9 +22,10 @@ def pack(mech):
     worst-case search calls the kernel thousands of times for one design)."""
     memo = mech.__dict__.get("_engine_pack")
     if memo is None:
-        from .memo import PACKS
+        from .mechanism import DescribedMechanism
+        from .memo import PACKS, params_key
 
-        key = mech.params_key() if hasattr(mech, "params_key") else None
+        key = params_key(mech) if isinstance(mech, DescribedMechanism) else None
         memo = PACKS.get(key) if key is not None else None
         if memo is None:
             memo = _pack(mech)
