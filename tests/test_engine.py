@@ -222,3 +222,75 @@ def test_the_specialized_tier_gives_the_generic_tiers_bits(monkeypatch):
         for st in ("mean", "min", "max", "std", "count"):
             assert np.array_equal(a[0][name][st], b[0][name][st], equal_nan=True), (name, st)
         assert np.array_equal(a[2][name], b[2][name], equal_nan=True), name
+
+
+def _zoom_both(mech, request, base, reg, u0, val0, spacing, stop, tol, iterations):
+    """The zoom of optdesign.worstcase.search run in the engine (with the starts
+    it hands back finished level by level) and level by level throughout."""
+    from optdesign.worstcase import search as S
+
+    def make(index):
+        m = type(mech)(**{k: np.asarray(v)[index] if np.ndim(v) else v for k, v in mech.params.items()})
+
+        def f(X):
+            vals, reach = m.local_values_at([request], np.swapaxes(X, 0, 1))
+            c = vals[request.name].T
+            return np.where(reach.T & np.isfinite(c), c, np.inf)
+        f.zoom = lambda *a: m.zoom_cond(request, *a)
+        return f
+
+    design = np.arange(len(u0))
+    out = []
+    for compiled in (True, False):
+        q = S._Quantity(make, design, base, reg)
+        if not compiled:
+            q.compiled_zoom = lambda *a: None
+        u, val = u0.copy(), val0.copy()
+        S._zoom(q, u, val, spacing, stop, tol, iterations)
+        out.append((u, val))
+    return out
+
+
+def test_the_zoom_in_the_engine_is_the_zoom_level_by_level():
+    """The worst-case search's zoom in the engine (``Mechanism.zoom_cond``) and
+    level by level in numpy around it give the same bits: 3-P(4S) designs from
+    the worst samples of a box W (and the refinement's fine levels), and a
+    start the engine hands back at an exactly singular pose (vertical rails,
+    rods in the rails' plane: the numpy path's point) that goes on level by level."""
+    from optdesign.mechanisms.base import IndexRequest
+    from optdesign.mechanisms.p4s import P4S
+    from optdesign.worstcase import search as S
+
+    req = IndexRequest("cond", "isotropy", "frobenius")
+    rng = np.random.default_rng(7)
+    D = 6
+    mech = P4S(r_a=rng.uniform(0.21, 0.29, D), r_b=rng.uniform(0.63, 0.71, D), L=np.full(D, 0.38),
+               d=np.full(D, 0.12), phi=np.radians(rng.uniform(25, 35, D)))
+    reg = {"axes": np.array([0, 1, 2]), "lo": np.array([-0.06, -0.06, 0.53]), "hi": np.array([0.06, 0.06, 0.61]),
+           "disc": None}
+    u0 = rng.random((D, 3))
+    base = np.zeros((D, 3))
+    base[:] = reg["lo"] + u0 * (reg["hi"] - reg["lo"])
+    val0 = mech.local_values_at([req], base[:, None, :])[0]["cond"][:, 0]
+    for spacing, tol, levels in ((0.2, S.TOL, S.ITERATIONS), (4e-4, S.FINE_TOL, S.FINE_LEVELS)):
+        (ua, va), (ub, vb) = _zoom_both(mech, req, base, reg, u0, val0, spacing, 50.0, tol, levels)
+        assert np.array_equal(ua, ub) and np.array_equal(va, vb)
+        assert np.all(va >= val0) and np.any(va > val0)
+    # a disc (the cylinder's W): the projection onto it in the engine too
+    disc = {"axes": np.array([0, 1]), "lo": np.array([-0.05, -0.05]), "hi": np.array([0.05, 0.05]),
+            "disc": (0.0, 0.0, 0.05)}
+    base2 = np.c_[np.zeros((D, 2)), np.full(D, 0.57)]
+    (ua, va), (ub, vb) = _zoom_both(mech, req, base2, disc, np.full((D, 2), 0.5), val0, 0.4, 50.0, S.TOL, 30)
+    assert np.array_equal(ua, ub) and np.array_equal(va, vb)
+    # vertical rails: at x = 0.5 the rods lie in the rails' plane (J singular): handed back at the first level
+    sing = P4S(r_a=np.array([0.25]), r_b=np.array([0.25 * np.cos(np.arcsin(0.12 / 0.5))]), L=np.array([0.5]),
+               d=np.array([0.12]), phi=np.array([np.pi / 2]))
+    reg1 = {"axes": np.array([0]), "lo": np.array([0.0]), "hi": np.array([1.0]), "disc": None}
+    base1 = np.array([[0.25, 0.0, 1.0]])
+    v1 = sing.local_values_at([req], base1[:, None, :])[0]["cond"][:, 0]
+    u, val, h = np.array([[0.25]]), v1.copy(), np.array([0.25])
+    live, budget = np.array([True]), np.array([30])
+    done, bail = sing.zoom_cond(req, base1, reg1, u, val, h, live, budget, np.array([[-1.0], [1.0]]), 1e30, 1e-6)
+    assert bail[0] and done[0] == 0
+    (ua, va), (ub, vb) = _zoom_both(sing, req, base1, reg1, np.array([[0.25]]), v1, 0.5, 1e30, 1e-6, 30)
+    assert np.array_equal(ua, ub) and np.array_equal(va, vb, equal_nan=True)

@@ -27,7 +27,7 @@ from ..fast import KernelModule
 from ..formulas import DYN, NVAL, kernel_value
 from .layout import CHUNK
 
-__all__ = ["KERNELS", "kernel_module", "plan", "run", "workers", "specialize", "tier", "TIER_VAR"]
+__all__ = ["KERNELS", "kernel_module", "plan", "run", "zoom", "workers", "specialize", "tier", "TIER_VAR"]
 
 KERNELS = KernelModule("optdesign.engine.kernels")
 
@@ -145,6 +145,34 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     finally:
         if lock is not None:
             lock.release()
+
+
+def zoom(codes, L, F, base, axes, lo, width, disc, u, val, h, live, budget, grid, stop, tol, value, want, flags,
+         spec=None):
+    """The worst-case search's zoom on a translation pose, every level in the
+    kernel (:func:`.kernels.zoom`), in place on u (M, f), val, h, live (M,):
+    (done (M,) levels, bail (M,) bool: stopped at a point the kernel leaves to
+    the numpy path) or None if the kernel cannot run.  value: (id, factor) of
+    the quantity."""
+    K = kernel_module()
+    if K is None or not _READY.get(spec is None):
+        return None
+    M = u.shape[0]
+    done = np.zeros(M, dtype=np.int64)
+    bail = np.zeros(M, dtype=np.bool_)
+    sel = None if spec is None else _selector(spec)
+    ptype, ct, kind, branch = codes
+    buf, lock = _buffers(K, 1)
+    try:
+        KERNELS.guarded(K.zoom, ptype, ct, kind, branch, L, F, base, axes, lo, width, bool(disc), u, val, h, live,
+                        budget, done, bail, grid, float(stop), float(tol), int(value[0]), float(value[1]), want, flags,
+                        sel, buf)
+    finally:
+        if lock is not None:
+            lock.release()
+    if KERNELS.module is None:
+        return None
+    return done, bail
 
 
 def _buffers(K, nw):

@@ -238,7 +238,7 @@ def _alloc(n):
     return _carve(np.zeros(WORDS), n)
 
 
-@register_jitable(**_JITABLE)
+@njit(**_NJIT)
 def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, cb, sel):
     """Values and reach codes of design d at the m points of the frame block
     FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
@@ -391,6 +391,79 @@ def run_tasks(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, p
                     kv = keep[d, v, lo:lo + n_pts]
                     for j in range(n_pts):
                         kv[j] = vals[v * CHUNK + j]
+
+
+@njit(nogil=True, **_NJIT)
+def zoom(ptype, ct, kind, branch, L, F, base, axes, lo, width, disc, u, val, h, live, budget, done, bail, grid,
+         stop, tol, vid, fac, want, flags, sel, buf):
+    """The zoom search of optdesign.worstcase.search._zoom on a translation
+    pose, every level in here: for each start m (design m of L, F; its pose
+    base[m], free axes ``axes`` at lo + u width), while it is live and has
+    levels left (budget[m]): the neighbours u + h grid[g] (clipped to the unit
+    box, the first two axes onto the disc where ``disc``), the value vid
+    (times fac) of each (inf where unreachable or not finite), the best if it
+    gains (else h halves), live while val < stop and h >= tol; the same
+    operations, in the same order, as the numpy search.  A start that meets a
+    point the kernel leaves to the numpy path (code 2) stops before that
+    level with bail[m] set (the caller goes on from its state); done[m]: its
+    levels.  In place on u, val, h, live, done, bail."""
+    n = kind.shape[0]
+    G = grid.shape[0]
+    f = grid.shape[1]
+    M = u.shape[0]
+    dof = base.shape[1]
+    if n < 1 or n > NMAX or G > BLK:
+        return
+    scratch, FRb, vals, cbuf = _carve(buf[0], n)
+    P = np.empty((G, f))
+    v = np.empty(G)
+    for mm in range(M):
+        done[mm] = 0
+        bail[mm] = False
+        for it in range(budget[mm]):
+            if not live[mm]:
+                break
+            for g in range(G):
+                for a in range(f):
+                    x = u[mm, a] + h[mm] * grid[g, a]
+                    P[g, a] = 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+                if disc:
+                    d0 = P[g, 0] - 0.5
+                    d1 = P[g, 1] - 0.5
+                    nn = math.sqrt(d0 * d0 + d1 * d1)
+                    sc = 0.5 / max(nn, 1e-300) if nn > 0.5 else 1.0
+                    P[g, 0] = 0.5 + d0 * sc
+                    P[g, 1] = 0.5 + d1 * sc
+                for k in range(dof):
+                    FRb[_u(k * BLK + g)] = base[mm, k]
+                for a in range(f):
+                    FRb[_u(axes[a] * BLK + g)] = lo[a] + P[g, a] * width[a]
+            _block(ptype, ct, kind, branch, L, F, mm, FRb, G, want, flags, scratch, vals, cbuf, sel)
+            stopped = False
+            for g in range(G):
+                if cbuf[g] == 2.0:
+                    stopped = True
+                    break
+                x = vals[vid * CHUNK + g] * fac if fac != 1.0 else vals[vid * CHUNK + g]
+                ok = cbuf[g] == 1.0 and (x < np.inf and x > -np.inf)
+                v[g] = x if ok else np.inf
+            if stopped:
+                bail[mm] = True
+                break
+            j = 0
+            best = v[0]
+            for g in range(1, G):
+                if v[g] > best:
+                    best = v[g]
+                    j = g
+            if best > val[mm]:
+                for a in range(f):
+                    u[mm, a] = P[j, a]
+                val[mm] = best
+            else:
+                h[mm] = 0.5 * h[mm]
+            live[mm] = live[mm] and (val[mm] < stop) and (h[mm] >= tol)
+            done[mm] = it + 1
 
 
 @njit(**_NJIT)

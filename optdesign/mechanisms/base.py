@@ -253,6 +253,15 @@ class Mechanism:
         over W (:mod:`optdesign.worstcase`) evaluates its poses this way."""
         return None
 
+    def zoom_cond(self, request: IndexRequest, base, reg, u, val, h, live, budget, grid, stop, tol):
+        """The worst-case search's zoom of one local value (the condition
+        number) in the compiled path, every design m of this mechanism from
+        its own start, in place on the search's state: ``(levels done (D,),
+        bail (D,))`` (a start that met a point the compiled path leaves to the
+        numpy path stops there, for the caller to go on), or None: the caller
+        runs the search level by level (:func:`optdesign.worstcase.search._zoom`)."""
+        return None
+
     def index_matrices(self, X: np.ndarray, needs: set[str]) -> dict[str, np.ndarray]:
         """The matrices the local indices need, keyed ``J`` (Jacobian) and ``M``
         (actuator-space mass matrix of the dynamic index)."""

@@ -72,6 +72,10 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
     def cond(index):
         m = mech_of(index)
 
+        if compiled:
+            def zoom(base, reg, u, val, h, live, budget, grid, stop, tol):
+                return m.zoom_cond(request, base, reg, u, val, h, live, budget, grid, stop, tol)
+
         def f(X):
             fast = m.local_values_at([request], np.swapaxes(X, 0, 1)) if compiled else None
             if fast is not None:       # the compiled path: each start's design at its own poses
@@ -83,6 +87,8 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
                 reach = np.asarray(st.reachable, bool)
                 c = np.asarray(local_index(kind, J=st.J, M=None, convention=convention, options={}), float)
             return np.where(reach & np.isfinite(c), c, np.inf)
+        if compiled:
+            f.zoom = zoom
         return f
 
     # the compiled path where the class has one (it may still decline: then the numpy path, correct but slower)

@@ -184,6 +184,15 @@ class _Quantity:
         self.make, self.design, self.base, self.reg = make, design, base, reg
         self.key, self.f = None, None
 
+    def compiled_zoom(self, u, val, h, live, budget, grid, stop, tol):
+        """The zoom of every start in the compiled path (the quantity's
+        ``zoom``: ``Mechanism.zoom_cond``), in place: (done, bail) or None."""
+        f = self.make(self.design)
+        z = getattr(f, "zoom", None)
+        if z is None:
+            return None
+        return z(self.base, self.reg, u, val, h, live, budget, grid, stop, tol)
+
     def __call__(self, P, rows):
         v = np.full(P.shape[:2], -np.inf)
         r = np.flatnonzero(rows)
@@ -222,17 +231,33 @@ def _zoom(quantity, u, val, spacing, stop, tol, iterations):
     start to its best neighbour if that gains (keeping its h), else halves
     its h; h starts at half the samples' spacing, a start ends when its h is
     below ``tol`` (unit coordinates), its value passes ``stop`` or is not
-    finite (infeasible), or after ``iterations`` levels."""
+    finite (infeasible), or after ``iterations`` levels.  Where the quantity's
+    mechanism has the search in its compiled path (``Mechanism.zoom_cond``:
+    every level in one call, the same operations) it runs there, and a start
+    it hands back (it met a point left to the numpy path) goes on here."""
     n_free = u.shape[1]
     if n_free <= FULL_GRID:
         grid = np.stack(np.meshgrid(*[np.array([-1.0, 0.0, 1.0])] * n_free, indexing="ij"), axis=-1).reshape(-1, n_free)
         grid = grid[np.any(grid != 0, axis=1)]          # (3^f - 1, f): the centre is known
     else:                                               # (2 f, f): along the axes only
         grid = np.concatenate([np.eye(n_free), -np.eye(n_free)])
-    cols = np.arange(u.shape[0])
     h = np.full(u.shape[0], 0.5 * spacing)
     live = np.isfinite(val) & (val < stop)
-    for _ in range(iterations):
+    budget = np.full(u.shape[0], int(iterations), dtype=np.int64)
+    fast = quantity.compiled_zoom(u, val, h, live, budget, grid, stop, tol) if live.any() else None
+    if fast is not None:
+        done, bail = fast
+        live &= bail                                    # the starts handed back go on here, from their level
+        budget = budget - done
+    _levels(quantity, u, val, h, live, budget, grid, stop, tol)
+
+
+def _levels(quantity, u, val, h, live, budget, grid, stop, tol):
+    """The zoom's levels here, at most budget[m] for start m (see :func:`_zoom`)."""
+    n_free = u.shape[1]
+    cols = np.arange(u.shape[0])
+    for level in range(int(budget.max(initial=0))):
+        live &= level < budget
         if not live.any():
             break
         P = _project((u[None] + h[None, :, None] * grid[:, None]).reshape(-1, n_free),
@@ -242,7 +267,7 @@ def _zoom(quantity, u, val, spacing, stop, tol, iterations):
         vj = v[j, cols]
         gain = live & (vj > val)
         u[gain], val[gain] = P[j[gain], cols[gain]], vj[gain]
-        h = np.where(gain, h, 0.5 * h)
+        h[:] = np.where(gain, h, 0.5 * h)
         live &= (val < stop) & (h >= tol)               # past the stop or not finite: infeasible, the search ends
 
 

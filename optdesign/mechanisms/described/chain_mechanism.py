@@ -396,6 +396,9 @@ class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
     def local_values_at(self, requests, X):
         return None
 
+    def zoom_cond(self, request, base, reg, u, val, h, live, budget, grid, stop, tol):
+        return None
+
     def kernel_source(self, title: str):
         return None
 

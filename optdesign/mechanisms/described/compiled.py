@@ -33,7 +33,8 @@ from ..base import IndexRequest
 from .fallback import merge, numpy_values
 from .packing import frame_rows, kernel_source, kernel_spec, pack, shape_codes  # noqa: F401 (the packing's names)
 
-__all__ = ["IndexRequest", "global_statistics", "local_values", "local_values_at", "reach_codes", "plan", "kernels",
+__all__ = ["IndexRequest", "global_statistics", "local_values", "local_values_at", "zoom_cond", "reach_codes", "plan",
+           "kernels",
            "pack", "kernel_spec", "kernel_source", "frame_rows", "shape_codes"]
 
 
@@ -224,6 +225,29 @@ def local_values(mech, requests, X):
     """The seam ``Mechanism.local_values``: the D designs at the points X (N,
     dof), ``(values {name: (D, N)}, reachable (D, N))``, or None."""
     return _point_values(mech, requests, X, False)
+
+
+def zoom_cond(mech, request, base, reg, u, val, h, live, budget, grid, stop, tol):
+    """The seam ``Mechanism.zoom_cond``: the worst-case search's zoom (see
+    optdesign.worstcase.search) of the request's value, each design m of mech
+    from its start (base[m], u[m], val[m], h[m], live[m]), in the engine, in
+    place: (done (M,) levels, bail (M,)) or None where it does not apply (not
+    a translation pose, a request the kernel does not compute, the engine off)."""
+    if not enabled() or mech.pose_spec.type != "translation":
+        return None
+    try:
+        codes, L, F, D = pack(mech)
+    except ValueError:
+        return None
+    pl, want, flags = _plan_of(mech, [request])
+    if len(pl) != 1 or D != u.shape[0]:
+        return None
+    axes = np.ascontiguousarray(reg["axes"], dtype=np.int64)
+    lo = np.ascontiguousarray(reg["lo"], dtype=float)
+    width = np.ascontiguousarray(reg["hi"] - reg["lo"], dtype=float)
+    return engine.zoom(codes, L, F, np.ascontiguousarray(base, dtype=float), axes, lo, width, reg["disc"] is not None,
+                       u, val, h, live, budget, np.ascontiguousarray(grid, dtype=float), stop, tol, pl[0][1:], want,
+                       flags, spec=engine.tier(kernel_spec(codes)))
 
 
 def reach_codes(mech, X) -> np.ndarray:

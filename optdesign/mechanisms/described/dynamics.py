@@ -168,3 +168,20 @@ def potential_energy(C: Constants, st: dict) -> np.ndarray:
         rc = np.einsum("...jk,...k->...j", R, C.com)
         zp = st["frames"].origin[..., 2] + rc[..., 2]
         return C.g * (np.sum(legs, axis=-1) + C.m_platform * zp)
+
+
+def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """J^-T B for stacks of square J (B (..., n, k)); NaN where J is singular or not finite."""
+    n = J.shape[-1]
+    Jt = np.swapaxes(J, -1, -2)
+    shape = np.broadcast_shapes(Jt.shape[:-2], B.shape[:-2])
+    Jt = np.broadcast_to(Jt, shape + Jt.shape[-2:])
+    B = np.broadcast_to(B, shape + B.shape[-2:])
+    good = np.all(np.isfinite(Jt), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
+    Js = np.where(good[..., None, None], Jt, np.eye(n))
+    Bs = np.where(good[..., None, None], B, 0.0)
+    det = np.linalg.det(Js)
+    good &= np.abs(det) > 0
+    Js = np.where(good[..., None, None], Js, np.eye(n))
+    out = np.linalg.solve(Js, Bs)
+    return np.where(good[..., None, None], out, np.nan)

@@ -27,7 +27,7 @@ from ..base import Mechanism
 from ..params import Param
 from . import kinematics as _kin
 from .constants import Constants, constants
-from .dynamics import potential_energy, twist_dynamics
+from .dynamics import _solve_T, potential_energy, twist_dynamics
 from .legs import leg_state
 from .memo import CONSTANTS, params_key
 from .poses import rate_bias, rate_map, twist_columns
@@ -36,23 +36,6 @@ from .schema import Description
 __all__ = ["DescribedMechanism", "make_class", "KINEMATIC_INDICES"]
 
 KINEMATIC_INDICES = ("stiffness", "isotropy", "dexterity", "manipulability", "driving", "axis_stiffness")
-
-
-def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """J^-T B for stacks of square J (B (..., n, k)); NaN where J is singular or not finite."""
-    n = J.shape[-1]
-    Jt = np.swapaxes(J, -1, -2)
-    shape = np.broadcast_shapes(Jt.shape[:-2], B.shape[:-2])
-    Jt = np.broadcast_to(Jt, shape + Jt.shape[-2:])
-    B = np.broadcast_to(B, shape + B.shape[-2:])
-    good = np.all(np.isfinite(Jt), axis=(-1, -2)) & np.all(np.isfinite(B), axis=(-1, -2))
-    Js = np.where(good[..., None, None], Jt, np.eye(n))
-    Bs = np.where(good[..., None, None], B, 0.0)
-    det = np.linalg.det(Js)
-    good &= np.abs(det) > 0
-    Js = np.where(good[..., None, None], Js, np.eye(n))
-    out = np.linalg.solve(Js, Bs)
-    return np.where(good[..., None, None], out, np.nan)
 
 
 class DescribedMeta(type):
@@ -316,6 +299,12 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         from .compiled import local_values_at
 
         return local_values_at(self, requests, X)
+
+    def zoom_cond(self, request, base, reg, u, val, h, live, budget, grid, stop, tol):
+        """The zoom in the engine (:func:`.compiled.zoom_cond`), or None."""
+        from .compiled import zoom_cond
+
+        return zoom_cond(self, request, base, reg, u, val, h, live, budget, grid, stop, tol)
 
     @classmethod
     def specialize_kernels(cls) -> None:

@@ -247,6 +247,12 @@ class P4S(Mechanism):
         """The engine, each design at its own points (see :func:`.compiled.local_values_at`)."""
         return compiled.local_values_at(self, requests, X)
 
+    def zoom_cond(self, request, base, reg, u, val, h, live, budget, grid, stop, tol):
+        """The worst-case search's zoom in the engine (``Mechanism.zoom_cond``), or None."""
+        if not compiled._flat(self):
+            return None
+        return compiled.described(self).zoom_cond(request, base, reg, u, val, h, live, budget, grid, stop, tol)
+
     @classmethod
     def specialize_kernels(cls) -> None:
         """The description's shape on the engine's specialized tier (``Mechanism.specialize_kernels``)."""
