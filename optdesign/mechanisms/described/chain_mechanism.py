@@ -389,15 +389,10 @@ class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
     def global_statistics(self, requests, X, want_max_cond: bool = False):
         return None
 
-    @classmethod
-    def specialize_kernels(cls) -> None:     # no compiled path of its own: nothing to specialize
-        return None
 
     def local_values_at(self, requests, X):
         return None
 
-    def zoom_cond(self, request, base, reg, u, val, h, live, budget, grid, stop, tol):
-        return None
 
     def kernel_source(self, title: str):
         return None

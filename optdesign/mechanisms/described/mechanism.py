@@ -312,7 +312,10 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
         from ... import engine
         from .packing import description_codes, kernel_spec
 
-        engine.specialize(kernel_spec(description_codes(cls.description)))
+        try:
+            engine.specialize(kernel_spec(description_codes(cls.description)))
+        except ValueError:          # a shape the engine does not pack (chain legs): nothing to specialize
+            pass
 
     def kernel_source(self, title: str) -> str:
         """The generated routines of the engine's specialized tier for this shape (:mod:`optdesign.engine.codegen`)."""

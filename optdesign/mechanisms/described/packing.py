@@ -92,6 +92,8 @@ def description_codes(desc):
         ct = np.array(twist_columns(spec), dtype=np.int64)
     else:
         ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
+    if getattr(desc, "is_chain", False):
+        raise ValueError("chain legs: the engine has no packing for them")
     kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
     branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
     return ptype, ct, kind, branch
