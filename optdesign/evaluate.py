@@ -34,8 +34,9 @@ __all__ = ["Evaluation", "Evaluator", "DesignModel", "evaluate", "evaluate_named
            "mechanism_class", "index_requests", "check_size", "global_indices_error", "error_method",
            "SPECIALIZE_WORK", "run_kernel_work"]
 
-#: the hidden request for the worst conditioning over W when the config has no isotropy index
-_COND = "__cond_2"
+#: the hidden requests for the worst conditioning over W when the config has no isotropy index, and for the
+#: smallest constraint-singularity value when it has no constraint index
+_COND, _CONSTRAINT = "__cond_2", "__constraint"
 
 
 def mechanism_class(config: Config) -> type[Mechanism]:
@@ -199,15 +200,11 @@ def evaluate_named(config: Config, names=None, workspace: Workspace | None = Non
 
 
 def global_indices_error(config: Config, designs, workspace: Workspace | None = None) -> list[dict[str, float]]:
-    """For each design (a list of parameter mappings, or a mapping of arrays
-    (D,), as :func:`evaluate` takes), the error estimate of every global index
-    ``{index: float}`` in the index's units: what ``results.json`` records as
-    ``global_indices_error`` beside ``global_indices`` (same keys).  The
-    workspace defaults to the config's; :func:`error_method` says how the
-    estimate is made."""
+    """For each design (as :func:`evaluate` takes them) the error estimate of every global index
+    ``{index: float}`` in its units: ``results.json``'s ``global_indices_error`` beside ``global_indices``.
+    The workspace defaults to the config's; :func:`error_method` says how the estimate is made."""
     ev = evaluate(config, designs, workspace)
-    D = ev.reachable.shape[0]
-    return [{k: float(ev.error[k][i]) for k in config.indices} for i in range(D)]
+    return [{k: float(ev.error[k][i]) for k in config.indices} for i in range(ev.reachable.shape[0])]
 
 
 #: a run's estimated kernel work (design-points, :func:`run_kernel_work`) from
@@ -242,7 +239,9 @@ class Evaluator:
     * ``finite``: 1 where a global index is not finite;
     * ``stroke_low`` / ``stroke_high``: actuator values outside
       ``stroke_limits`` (narrowed by ``margin`` times their span on each
-      side) anywhere in W (m), when the config sets them.
+      side) anywhere in W (m), when the config sets them;
+    * ``constraint_singularity`` (with ``constraint_limit``): ``1 - min_W c / (limit (1 + margin))``, c a chain
+      mechanism's constraint-singularity value at the samples (1 where no point is reachable).
 
     With ``worst_case`` the maxima over W are those of the continuous search
     of :mod:`optdesign.worstcase` (from the worst samples, for every design
@@ -252,7 +251,7 @@ class Evaluator:
     limit itself (the certificates' limit); ``limit`` is the tightened one.
     """
 
-    CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high")
+    CONSTRAINTS = ("reach", "singularity", "finite", "stroke_low", "stroke_high", "constraint_singularity")
     #: most design vectors whose worst case over W is kept (see :meth:`_worst_over_w`)
     MEMO = 50_000
 
@@ -260,7 +259,7 @@ class Evaluator:
                  free: list[str], xl: np.ndarray, xu: np.ndarray, workspace: Workspace,
                  requests: list[IndexRequest], senses: Mapping[str, str], threshold: float,
                  stroke_limits: tuple[float, float] | None, extra: tuple[str, ...] = (),
-                 worst_case: bool = False, margin: float = 0.0):
+                 worst_case: bool = False, margin: float = 0.0, constraint_limit: float | None = None):
         self.mechanism = mechanism
         self.fixed = dict(fixed)
         self.defaults = dict(defaults)
@@ -279,11 +278,14 @@ class Evaluator:
         self.extra = {k: mechanism.extra_objectives[k] for k in extra}
         iso = [r.name for r in requests if r.kind == "isotropy"]
         self._cond = iso[0] if iso else None
-        if self._cond is None:
-            self.requests_all = self.requests + [IndexRequest(_COND, "isotropy", "two_norm")]
-        else:
-            self.requests_all = self.requests
-        self.constraint_names = list(self.CONSTRAINTS[:3]) + (list(self.CONSTRAINTS[3:]) if stroke_limits else [])
+        self.requests_all = self.requests + ([] if iso else [IndexRequest(_COND, "isotropy", "two_norm")])
+        self.constraint_limit = None if constraint_limit is None else float(constraint_limit) * (1.0 + self.margin)
+        con = [r.name for r in requests if r.kind == "constraint"]
+        self._constraint = con[0] if con else _CONSTRAINT
+        if constraint_limit is not None and not con:
+            self.requests_all = self.requests_all + [IndexRequest(_CONSTRAINT, "constraint", None)]
+        self.constraint_names = list(self.CONSTRAINTS[:3]) + (list(self.CONSTRAINTS[3:5]) if stroke_limits else []) \
+            + (["constraint_singularity"] if constraint_limit is not None else [])
         self.n_evaluations = 0
         self._memo: dict = {}
 
@@ -303,7 +305,7 @@ class Evaluator:
                    np.array([config.design_variables[k].bounds[1] for k in free]),
                    ws, index_requests(config), {k: s.sense for k, s in config.indices.items()},
                    opt.singularity_threshold, opt.stroke_limits, tuple(opt.extra_objectives),
-                   opt.worst_case, opt.constraint_margin)
+                   opt.worst_case, opt.constraint_margin, opt.constraint_singularity)
 
     # ------------------------------------------------------------------ vectors
     def designs(self, X: np.ndarray) -> dict[str, np.ndarray]:
@@ -408,6 +410,10 @@ class Evaluator:
             qmin, qmax = Q if isinstance(Q, tuple) else worstcase.q_range(Q)
             cons["stroke_low"] = np.where(np.isfinite(qmin), lo + pad - qmin, 1.0)
             cons["stroke_high"] = np.where(np.isfinite(qmax), qmax - (hi - pad), 1.0)
+        if self.constraint_limit is not None:
+            s = summary[self._constraint]
+            cons["constraint_singularity"] = np.where((s["count"] > 0) & np.isfinite(s["min"]),
+                                                      1.0 - s["min"] / self.constraint_limit, 1.0)
         vals.update(self.extra_values(designs))
         self.n_evaluations += X.shape[0]
         return {"values": vals, "constraints": cons, "reachable_fraction": frac, "cond_max": np.asarray(cmax, float)}

@@ -25,7 +25,13 @@ manipulability  max      sqrt(det(J J^T))
 driving         max      sqrt(det(J^T J))
 axis_stiffness  max      k (J^T J)_aa: diagonal entry ``axis`` (option, 0-based) of
                          K = k J^T J, the stiffness along one task axis (3-SPS-S eq. 12)
+constraint      max      the constraint-singularity value of a chain mechanism (``C``:
+                         sigma_(6 - n) of its unit constraint wrenches, dimensionless,
+                         0 at a constraint singularity; docs/lower-mobility.md)
 ==============  =======  ==============================================================
+
+``constraint`` is not a function of J or M: the mechanism gives the value
+itself as the ``C`` of its index matrices (chain mechanisms only).
 """
 from __future__ import annotations
 
@@ -49,7 +55,7 @@ class IndexKind:
     """A local index: what it needs (``J`` and/or ``M``), its sense, its conventions."""
 
     kind: str
-    needs: str                       # "J" or "M"
+    needs: str                       # "J", "M" or "C" (a value the mechanism gives)
     sense: str                       # "min" or "max"
     conventions: tuple[str, ...]
     default_convention: str | None
@@ -62,7 +68,7 @@ class IndexKind:
 def _local(kind):
     """func(M, J, convention, options) of an index kind: its row of the table
     optdesign.formulas.VALUES, with the factor and column its options give."""
-    def func(M, J, convention, options):
+    def func(M, J, convention, options, C=None):
         row, c, a = select(kind, convention, options, None if J is None else J.shape[-1])
         return row.value(Operands(J=J, M=M), c, a)
     return func
@@ -70,6 +76,12 @@ def _local(kind):
 
 _dynamic, _stiffness, _isotropy, _dexterity, _manip, _driving, _axis_stiffness = (
     _local(k) for k in ("dynamic", "stiffness", "isotropy", "dexterity", "manipulability", "driving", "axis_stiffness"))
+
+
+def _constraint(M, J, convention, options, C=None):
+    """The mechanism's constraint-singularity value C (...), 0 where it is not finite."""
+    c = np.asarray(C, dtype=float)
+    return np.where(np.isfinite(c), c, 0.0)
 
 
 INDEX_KINDS: dict[str, IndexKind] = {
@@ -85,15 +97,18 @@ INDEX_KINDS: dict[str, IndexKind] = {
     "driving": IndexKind("driving", "J", "max", (), None, _driving, "driving index sqrt(det(J^T J))"),
     "axis_stiffness": IndexKind("axis_stiffness", "J", "max", (), None, _axis_stiffness,
                                 "stiffness along one task axis, k (J^T J)_aa (options: axis, k)", ("axis", "k")),
+    "constraint": IndexKind("constraint", "C", "max", (), None, _constraint,
+                            "constraint-singularity value of a chain mechanism (0 at a constraint singularity)"),
 }
 
 
 def local_index(kind: str, *, J: np.ndarray | None = None, M: np.ndarray | None = None,
-                convention: str | None = None, options: dict | None = None) -> np.ndarray:
-    """Evaluate one local index on stacks of matrices."""
+                convention: str | None = None, options: dict | None = None, C: np.ndarray | None = None) -> np.ndarray:
+    """Evaluate one local index on stacks of matrices (``C``: the constraint
+    kind's value, which the mechanism computes)."""
     spec = INDEX_KINDS[kind]
     conv = convention if convention is not None else spec.default_convention
-    return spec.func(M, J, conv, options or {})
+    return spec.func(M, J, conv, options or {}, C)
 
 
 def global_summary(values: np.ndarray, mask: np.ndarray | None = None, axis: int = -1) -> dict[str, np.ndarray]:

@@ -28,8 +28,9 @@ def local_values(mech: Mechanism, X: np.ndarray, requests: list[IndexRequest], D
         st = mech.state(X)        # one inverse kinematics for the mask and the matrices
         reach = np.broadcast_to(st.reachable, (D, X.shape[0]))
         mats = st.matrices(needs)
-        vals = {r.name: np.broadcast_to(local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
-                                                    options=r.option_dict()), reach.shape) for r in requests}
+        vals = {r.name: np.broadcast_to(local_index(r.kind, J=mats.get("J"), M=mats.get("M"), C=mats.get("C"),
+                                                    convention=r.convention, options=r.option_dict()), reach.shape)
+                for r in requests}
     return vals, reach
 
 
@@ -74,7 +75,7 @@ def _numpy_statistics(mech: Mechanism, X: np.ndarray, requests: list[IndexReques
             reach = np.broadcast_to(st.reachable, (D, X.shape[0]))
         mats = st.matrices(needs)
         for r in requests:
-            vals = local_index(r.kind, J=mats.get("J"), M=mats.get("M"), convention=r.convention,
+            vals = local_index(r.kind, J=mats.get("J"), M=mats.get("M"), C=mats.get("C"), convention=r.convention,
                                options=r.option_dict())
             vals = np.broadcast_to(vals, reach.shape)
             summary[r.name] = global_summary(vals, reach)

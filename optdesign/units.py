@@ -144,7 +144,7 @@ def _index_unit(mech, poses: Mapping[str, tuple], act: str, spec) -> str | None:
     """SI unit of a global index (the mean of its local values), or None where
     the mechanism's axes mix units and no single unit applies."""
     kind = spec.kind
-    if kind in ("isotropy", "dexterity"):
+    if kind in ("isotropy", "dexterity", "constraint"):
         return DIMENSIONLESS
     names = list(poses)
     if kind == "axis_stiffness":

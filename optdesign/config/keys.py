@@ -340,6 +340,12 @@ OPTIMIZER = Section("optimizer", (
     Key("singularity_threshold", "number", 1e3, check=Interval(0, None, "neither"),
         doc="designs whose largest local cond(J) over W exceeds this are infeasible (the cond of the config's "
             "first isotropy index, in its convention; cond_2 where the config has none)"),
+    Key("constraint_singularity", "number", None, check=Interval(0, 1, "neither"), custom=True,
+        annotation="float | None", default_doc="none",
+        doc="chain mechanisms only (docs/lower-mobility.md): designs whose smallest constraint-singularity value "
+            "over the samples of W (the `constraint` index's local value, 0 at a constraint singularity) is below "
+            "this are infeasible; the optimizer works against it raised by `constraint_margin` (value ≥ limit × "
+            "(1 + margin)); the continuous worst-case search does not cover it"),
     Key("stroke_limits", "pair", None, unit="m", default_doc="none", example=[-10.0, 10.0],
         doc="actuator values outside this range anywhere in W make a design infeasible"),
     Key("worst_case", "boolean", True,

@@ -171,6 +171,9 @@ def from_mapping(data: Any, source: str, run_folder: bool = False) -> Config:
             conv = r.string(conv, f"{ipath}.convention", choices=set(spec.conventions))
         elif conv is not None:
             r.fail(f"{ipath}.convention", f"index {kind!r} has no conventions")
+        if kind == "constraint" and kind not in mech_cls.supported_indices:
+            r.fail(f"{ipath}.kind", f"index 'constraint' reads the constraint-singularity value of chain legs "
+                                    f"(docs/lower-mobility.md); mechanism {mech_name!r} has no chain legs")
         if kind not in mech_cls.supported_indices:
             r.fail(f"{ipath}.kind", f"index {kind!r} is not available for mechanism {mech_name!r}; expected one of {', '.join(mech_cls.supported_indices)}")
         sense = r.string(im.get("sense", spec.sense), f"{ipath}.sense", choices={"min", "max"})

@@ -191,6 +191,12 @@ def optimizer_section(r: Reader, opt: Any, dvs: dict, indices: dict, mech_cls,
             m = r.mapping(opt[sub], f"{path}.{sub}")
             r.only(m, f"{path}.{sub}", OPTIMIZER.allowed(sub))
             kw.update(OPTIMIZER.read(r, m, f"{path}.{sub}", level=sub))
+    if "constraint_singularity" in opt:
+        key = f"{path}.constraint_singularity"
+        kw["constraint_singularity"] = OPTIMIZER["constraint_singularity"].read(r, opt["constraint_singularity"], key)
+        if "constraint" not in mech_cls.supported_indices:
+            r.fail(key, "the constraint-singularity value is a chain mechanism's (docs/lower-mobility.md); "
+                        f"mechanism {mech_cls.name!r} has no chain legs")
     if "extra_objectives" in opt:
         kw["extra_objectives"] = OPTIMIZER["extra_objectives"].read(r, opt["extra_objectives"], f"{path}.extra_objectives",
                                                                     choices=set(mech_cls.extra_objectives))

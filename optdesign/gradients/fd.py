@@ -25,6 +25,9 @@ from ..evaluate import _COND, Evaluator
 
 __all__ = ["FD_STEP", "ENVELOPE_STEP", "smooth_singularity", "fd_derivatives"]
 
+#: the Evaluator's constraints taken as they are, differenced on the stencil (the strokes' values are
+#: replaced by the envelope's with the worst case on; the constraint singularity's stay the samples')
+_SAMPLED = ("stroke_low", "stroke_high", "constraint_singularity")
 #: central-difference step, relative to the width of the design box
 FD_STEP = 2e-6
 #: the step of the worst-case constraints' differences at a held pose: no
@@ -84,7 +87,7 @@ def fd_derivatives(evaluator: Evaluator, X: np.ndarray, reason: str = "", values
         res = evaluator(X)
         cons = {"singularity": _singularity(res, evaluator.limit)[:, None]}
         cons.update({k: np.asarray(res["constraints"][k], dtype=float)[:, None]
-                     for k in ("stroke_low", "stroke_high") if k in res["constraints"]})
+                     for k in _SAMPLED if k in res["constraints"]})
         if worst:
             got = _hill_rows(evaluator, X, res, None)
             if got is not None:
@@ -98,7 +101,7 @@ def fd_derivatives(evaluator: Evaluator, X: np.ndarray, reason: str = "", values
     for k, v in res["values"].items():
         values[k], grads[k], err[k] = _diff(v, D, h)
     rows = {"singularity": _singularity(res, evaluator.limit)}
-    rows.update({k: res["constraints"][k] for k in ("stroke_low", "stroke_high") if k in res["constraints"]})
+    rows.update({k: res["constraints"][k] for k in _SAMPLED if k in res["constraints"]})
     for k, a in rows.items():
         v, g, _ = _diff(a, D, h)
         cons[k], cgrads[k] = v[:, None], g[:, None, :]

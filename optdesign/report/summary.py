@@ -100,7 +100,8 @@ def design_space_key(config_text: str) -> str | None:
              "design_variables": {k: [dv.value, dv.bounds] for k, dv in cfg.design_variables.items()},
              "workspace": repr(cfg.workspace),
              "indices": {k: [s.kind, s.convention, sorted((s.options or {}).items())] for k, s in cfg.indices.items()},
-             "constraints": [opt.singularity_threshold, opt.stroke_limits]}
+             "constraints": [opt.singularity_threshold, opt.stroke_limits]
+             + ([opt.constraint_singularity] if opt.constraint_singularity is not None else [])}
     text = json.dumps(space, sort_keys=True, default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 

@@ -22,6 +22,7 @@ from .chain_solve import continuation, fk_system, flat_constants, ik_system, new
 from .legs import leg_state
 from .chain_checks import ChainChecks
 from .chain_dynamics import ChainDynamics
+from .chain_screws import ChainScrews
 from .chain_maps import coordinate_map, home_coordinates, unmap
 from .mechanism import DescribedMechanism
 
@@ -30,7 +31,7 @@ __all__ = ["ChainMechanism", "chain_attributes"]
 _ANGLES = ("roll", "pitch", "yaw")
 
 
-class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
+class ChainMechanism(ChainScrews, ChainDynamics, ChainChecks, DescribedMechanism):
     """A described mechanism with chain legs and parasitic pose coordinates."""
 
     #: the parasitic pose coordinates' names (solved from the closures)
@@ -212,6 +213,10 @@ class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
         if "M" in needs:
             self._require_dynamics()
             out["M"] = self._actuator_mass(st)
+        if "C" in needs:
+            from .chain_screws import constraint_value
+
+            out["C"] = constraint_value(self, st.core)
         return out
 
     def jacobian_rates(self, X):
@@ -272,67 +277,6 @@ class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
         shp = lambda a: a.reshape(tuple(S) + a.shape[1:]) if S else a[0]  # noqa: E731
         return {"Xf": shp(Xf), "theta": [shp(u[:, offs[i]:offs[i + 1]]) for i in range(len(ks))], "U": shp(U),
                 "ok": shp(ok)}
-
-    def mobility(self) -> dict:
-        """The platform's mobility at the home configuration of every design:
-        ``mobility`` (S) = 6 - ``rank`` (S) of all constraint wrenches (the
-        legs' and the pose type's), ``leg_ranks`` (S + (m,)) the rank of each
-        chain leg's twist system, ``counts`` its constraint wrenches (the mode
-        over the designs), ``without`` (S + (m,)) the mobility without each leg's
-        wrenches (which leg to look at), ``pose_constraints`` the pose type's count."""
-        from .chain_screws import _rank, wrench_systems
-
-        core = self.home_state()
-        ws = wrench_systems(self, core["Xf"], core["theta"])
-        ranks = np.stack([_rank(T) for T in ws["T"]], -1) if ws["T"] else np.zeros(core["Xf"].shape[:-2] + (0,))
-        parts = [w for w in ws["Wc"]]
-        allw = np.concatenate(parts + [np.broadcast_to(ws["Wp"], ws["Wp"].shape)], -2) if parts or ws["Wp"].size \
-            else np.zeros(ranks.shape[:-1] + (0, 6))
-        rank = _rank(allw) if allw.shape[-2] else np.zeros(ranks.shape[:-1], dtype=int)
-        without = []
-        for i in range(len(parts)):
-            rest = parts[:i] + parts[i + 1:] + [ws["Wp"]]
-            W = np.concatenate(rest, -2)
-            without.append(6 - (_rank(W) if W.shape[-2] else 0))
-        return {"mobility": 6 - rank, "rank": rank, "leg_ranks": ranks, "counts": tuple(ws["counts"]),
-                "without": np.stack(without, -1) if without else ranks, "pose_constraints": ws["Wp"].shape[-2]}
-
-    def constraint_counts(self) -> tuple:
-        """Each chain leg's number of constraint wrenches at home (the most
-        frequent over the designs), used at every pose."""
-        c = self.__dict__.get("_counts")
-        if c is None:
-            r = np.asarray(self.mobility()["leg_ranks"]).reshape(-1, len(self.chain_constants.legs))
-            c = []
-            for i in range(r.shape[1]):
-                vals, n = np.unique(6 - r[:, i][r[:, i] >= 0], return_counts=True)
-                c.append(int(vals[np.argmax(n)]) if len(vals) else 0)
-            c = tuple(c)
-            self.__dict__["_counts"] = c
-        return c
-
-    def screw_jacobians(self, X) -> dict:
-        """The actuation Jacobian ``Ja`` (qdot = Ja xi), the constraint Jacobian
-        ``Jc`` (Jc xi = 0), ``Xi`` (xi = Xi xdot) and the singularity values
-        ``constraint`` and ``actuation`` at independent coordinates X
-        (:func:`.chain_screws.jacobians`, docs/lower-mobility.md)."""
-        from .chain_screws import jacobians
-
-        return jacobians(self, self.state(X).core)
-
-    def actuation_jacobian(self, X):
-        """Ja (..., N, n_act, 6): qdot = Ja xi for the platform twist xi = (v_o, omega)."""
-        return self.screw_jacobians(X)["Ja"]
-
-    def constraint_jacobian(self, X):
-        """Jc (..., N, n_c, 6): Jc xi = 0 for every twist the legs allow."""
-        return self.screw_jacobians(X)["Jc"]
-
-    def constraint_singularity(self, X):
-        """The local constraint-singularity value (..., N): sigma_(6 - n_ind) of the
-        stacked unit constraint wrenches (f, m_o / L), dimensionless, 0 where
-        the constraints lose rank (the platform gains a motion)."""
-        return self.screw_jacobians(X)["constraint"]
 
     # ------------------------------------------------------------------ forward kinematics
     def forward(self, Q: np.ndarray, X0=None) -> np.ndarray:
@@ -403,8 +347,10 @@ class ChainMechanism(ChainDynamics, ChainChecks, DescribedMechanism):
 
 def chain_attributes(desc, attrs) -> dict:
     """The class attributes a chain description sets beside :func:`.mechanism.make_class`'s:
-    the parasitic coordinates' names and, with a coordinate map, its coordinates and units."""
-    out = {"parasitic_names": tuple(desc.pose.names[i] for i in desc.pose.parasitic_index)}
+    the parasitic coordinates' names, the ``constraint`` index and, with a coordinate map, its
+    coordinates and units."""
+    out = {"parasitic_names": tuple(desc.pose.names[i] for i in desc.pose.parasitic_index),
+           "supported_indices": attrs["supported_indices"] + ("constraint",)}
     names = attrs["pose_names"]
     if desc.pose.coords is not None:
         out["pose_names"] = names = desc.pose.coords

@@ -31,7 +31,8 @@ from .chain_poe import chain_poe
 from .chain_solve import full_rate_map
 from .poses import frames
 
-__all__ = ["leg_twists", "pose_constraints", "wrench_systems", "jacobians", "unscaled", "RANK_TOL"]
+__all__ = ["leg_twists", "pose_constraints", "wrench_systems", "jacobians", "constraint_value", "unscaled",
+           "ChainScrews", "RANK_TOL"]
 
 #: relative singular-value tolerance of the ranks
 RANK_TOL = 1e-9
@@ -94,13 +95,14 @@ def _rank(A) -> np.ndarray:
     return np.where(good, np.sum(s > RANK_TOL * np.maximum(1.0, s[..., :1]), axis=-1), -1)
 
 
-def wrench_systems(mech, Xf, thetas, counts=None) -> dict:
+def wrench_systems(mech, Xf, thetas, counts=None, actuation: bool = True) -> dict:
     """At whole poses Xf (..., dof) with the chains' joint values ``thetas``
     (list of (..., k)): per chain leg its scaled twist system ``T`` and
     constraint wrenches ``Wc`` ((..., c_i, 6), scaled, c_i from ``counts`` or
     the rank here), the pose type's ``Wp``, the actuation wrench ``Wa`` of
     each actuated chain leg (scaled, unit) and ``power`` = W_a o T_a (SI);
-    ``L`` the length scale and ``origin`` the platform origin."""
+    ``L`` the length scale and ``origin`` the platform origin (``actuation``
+    false: no ``Wa`` and ``power``)."""
     cc = mech.chain_constants
     spec = mech.pose_spec
     L = np.asarray(cc.length, dtype=float)
@@ -115,7 +117,7 @@ def wrench_systems(mech, Xf, thetas, counts=None) -> dict:
         out["T"].append(T)
         out["Wc"].append(Wc)
         out["counts"].append(c)
-        if leg.act is not None:
+        if actuation and leg.act is not None:
             Tp = np.delete(T, leg.act, axis=-2)
             Np = _null(Tp @ _DELTA, c + 1)
             beta = np.einsum("...ij,...j->...i", Np @ _DELTA, T[..., leg.act, :])
@@ -149,8 +151,7 @@ def jacobians(mech, core) -> dict:
     Xf = core["Xf"]
     ws = wrench_systems(mech, Xf, core["theta"], counts=mech.constraint_counts())
     L, fr = np.asarray(ws["L"], dtype=float), ws["frames"]
-    shape = Xf.shape[:-1]
-    Jcs = np.concatenate([np.broadcast_to(w, shape + w.shape[-2:]) for w in ws["Wc"] + [ws["Wp"]]], -2)
+    Jcs = _stacked(ws, Xf.shape[:-1])
     Jc = unscaled(Jcs, L)
     rows, unit = [], []
     st = core["st"]
@@ -166,13 +167,96 @@ def jacobians(mech, core) -> dict:
             unit.append(u / np.linalg.norm(u, axis=-1, keepdims=True))
     Ja = np.stack(rows, -2)
     Xi = full_rate_map(spec, fr) @ core["P"]
-    r = 6 - len(spec.independent_index)
     with np.errstate(all="ignore"):
-        sc = np.linalg.svd(np.where(np.isfinite(Jcs), Jcs, 0.0), compute_uv=False) if Jcs.shape[-2] else None
-        cval = sc[..., r - 1] if sc is not None and r > 0 else np.ones(Xf.shape[:-1])
+        cval = _sigma_r(Jcs, 6 - len(spec.independent_index), Xf.shape[:-1])
         A = np.concatenate([np.stack(unit, -2), Jcs], -2)
         sa = np.linalg.svd(np.where(np.isfinite(A), A, 0.0), compute_uv=False)
         aval = sa[..., 5] if sa.shape[-1] >= 6 else np.zeros(Xf.shape[:-1])
     bad = ~core["reachable"]
     nan = lambda a: np.where(bad.reshape(bad.shape + (1,) * (a.ndim - bad.ndim)), np.nan, a)  # noqa: E731
     return {"Ja": nan(Ja), "Jc": nan(Jc), "Xi": nan(Xi), "constraint": nan(cval), "actuation": nan(aval)}
+
+
+def _stacked(ws, shape) -> np.ndarray:
+    """The legs' and the pose type's scaled unit constraint wrenches stacked (..., n_c, 6)."""
+    return np.concatenate([np.broadcast_to(w, shape + w.shape[-2:]) for w in ws["Wc"] + [ws["Wp"]]], -2)
+
+
+def _sigma_r(Jcs, r: int, shape) -> np.ndarray:
+    """sigma_r of the stacked wrenches (1 where r = 0: no constraint to lose)."""
+    if not Jcs.shape[-2] or r <= 0:
+        return np.ones(shape)
+    return np.linalg.svd(np.where(np.isfinite(Jcs), Jcs, 0.0), compute_uv=False)[..., r - 1]
+
+
+def constraint_value(mech, core) -> np.ndarray:
+    """The constraint-singularity value (...) of :func:`jacobians` alone (no
+    actuation wrenches): what the ``constraint`` index reads; NaN where not reachable."""
+    Xf = core["Xf"]
+    ws = wrench_systems(mech, Xf, core["theta"], counts=mech.constraint_counts(), actuation=False)
+    with np.errstate(all="ignore"):
+        c = _sigma_r(_stacked(ws, Xf.shape[:-1]), 6 - len(mech.pose_spec.independent_index), Xf.shape[:-1])
+    return np.where(core["reachable"], c, np.nan)
+
+
+class ChainScrews:
+    """The screw-theory methods of :class:`.chain_mechanism.ChainMechanism`:
+    the mobility at home, the constraint counts, the actuation and constraint
+    Jacobians and the singularity values at poses."""
+
+    def mobility(self) -> dict:
+        """The platform's mobility at the home configuration of every design:
+        ``mobility`` (S) = 6 - ``rank`` (S) of all constraint wrenches (the
+        legs' and the pose type's), ``leg_ranks`` (S + (m,)) the rank of each
+        chain leg's twist system, ``counts`` its constraint wrenches (the mode
+        over the designs), ``without`` (S + (m,)) the mobility without each leg's
+        wrenches (which leg to look at), ``pose_constraints`` the pose type's count."""
+        core = self.home_state()
+        ws = wrench_systems(self, core["Xf"], core["theta"])
+        ranks = np.stack([_rank(T) for T in ws["T"]], -1) if ws["T"] else np.zeros(core["Xf"].shape[:-2] + (0,))
+        parts = [w for w in ws["Wc"]]
+        allw = np.concatenate(parts + [np.broadcast_to(ws["Wp"], ws["Wp"].shape)], -2) if parts or ws["Wp"].size \
+            else np.zeros(ranks.shape[:-1] + (0, 6))
+        rank = _rank(allw) if allw.shape[-2] else np.zeros(ranks.shape[:-1], dtype=int)
+        without = []
+        for i in range(len(parts)):
+            rest = parts[:i] + parts[i + 1:] + [ws["Wp"]]
+            W = np.concatenate(rest, -2)
+            without.append(6 - (_rank(W) if W.shape[-2] else 0))
+        return {"mobility": 6 - rank, "rank": rank, "leg_ranks": ranks, "counts": tuple(ws["counts"]),
+                "without": np.stack(without, -1) if without else ranks, "pose_constraints": ws["Wp"].shape[-2]}
+
+    def constraint_counts(self) -> tuple:
+        """Each chain leg's number of constraint wrenches at home (the most
+        frequent over the designs), used at every pose."""
+        c = self.__dict__.get("_counts")
+        if c is None:
+            r = np.asarray(self.mobility()["leg_ranks"]).reshape(-1, len(self.chain_constants.legs))
+            c = []
+            for i in range(r.shape[1]):
+                vals, n = np.unique(6 - r[:, i][r[:, i] >= 0], return_counts=True)
+                c.append(int(vals[np.argmax(n)]) if len(vals) else 0)
+            c = tuple(c)
+            self.__dict__["_counts"] = c
+        return c
+
+    def screw_jacobians(self, X) -> dict:
+        """The actuation Jacobian ``Ja`` (qdot = Ja xi), the constraint Jacobian
+        ``Jc`` (Jc xi = 0), ``Xi`` (xi = Xi xdot) and the singularity values
+        ``constraint`` and ``actuation`` at independent coordinates X
+        (:func:`.chain_screws.jacobians`, docs/lower-mobility.md)."""
+        return jacobians(self, self.state(X).core)
+
+    def actuation_jacobian(self, X):
+        """Ja (..., N, n_act, 6): qdot = Ja xi for the platform twist xi = (v_o, omega)."""
+        return self.screw_jacobians(X)["Ja"]
+
+    def constraint_jacobian(self, X):
+        """Jc (..., N, n_c, 6): Jc xi = 0 for every twist the legs allow."""
+        return self.screw_jacobians(X)["Jc"]
+
+    def constraint_singularity(self, X):
+        """The local constraint-singularity value (..., N): sigma_(6 - n_ind) of the
+        stacked unit constraint wrenches (f, m_o / L), dimensionless, 0 where
+        the constraints lose rank (the platform gains a motion)."""
+        return self.screw_jacobians(X)["constraint"]
