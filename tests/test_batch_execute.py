@@ -41,6 +41,7 @@ def test_same_seed_same_result_whatever_jobs(small_batches):
         assert _stage_files(root / "jobs1" / t.folder_name) == _stage_files(root / "jobs2" / t.folder_name)
 
 
+@pytest.mark.slow
 def test_rerun_skips_finished_runs(small_batch, capsys):
     tasks, root, rows1 = small_batch
     out = root / "jobs1"
@@ -59,6 +60,7 @@ def test_rerun_skips_finished_runs(small_batch, capsys):
     assert len(plan([str(SMALL), str(SMALL)], seeds=[1, 1, 2])) == 2
 
 
+@pytest.mark.slow
 def test_interrupted_runs_resumed_by_rerun(small_batch, tmp_path):
     tasks, root, rows1 = small_batch
     out = tmp_path / "runs"

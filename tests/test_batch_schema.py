@@ -16,6 +16,7 @@ from optdesign.config import ConfigError, parse_config
 from conftest import BATCH_SMALL as SMALL, CONFIGS, DATA
 
 
+@pytest.mark.slow
 def test_sweep_grid_zip_and_resolved_configs(tmp_path):
     tasks = plan([str(DATA / "batch_sweep.yaml")])
     assert len(tasks) == 8 and len({t.key for t in tasks}) == 8          # 2 masses × 2 widths × 2 seeds

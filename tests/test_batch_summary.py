@@ -81,6 +81,7 @@ def _space_config(name: str, optimizer: str) -> str:
                                            f"optimizer: {optimizer}"})
 
 
+@pytest.mark.slow
 def test_seeds_are_ranked_on_the_extremes_pooled_over_the_design_space(tmp_path, capsys):
     """Three seeds of a config whose single-objective searches are tiny (no
     pre-scan, no polish, 4 x 1: poor extremes) and one run of a config of the

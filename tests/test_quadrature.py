@@ -377,3 +377,18 @@ def test_disc_centred_on_the_cone_gauss_converges_fast(paper_config):
             assert np.all(ev.error[k][big] >= 0.9 * true[big]), (n, k)
             if n == 8:
                 assert np.all(true < 1e-11 * np.abs(I))
+
+
+@pytest.mark.parametrize("n", [150, 151, 1024])
+def test_gauss_rule_on_both_sides_of_the_switch(n):
+    """numpy's rule up to LEGGAUSS_MAX nodes, scipy's beyond: both integrate
+    cos(a x) over [lo, hi] to 1e-13 (a up to n/2) with weights summing to 1."""
+    from optdesign.workspace import LEGGAUSS_MAX, gauss_legendre
+
+    assert LEGGAUSS_MAX == 150
+    lo, hi = -0.3, 0.5
+    x, w = gauss_legendre(n, lo, hi)
+    assert np.all(np.diff(x) > 0) and lo < x[0] and x[-1] < hi and abs(w.sum() - 1.0) < 1e-14
+    for a in (3.0, 40.0, n / 2 / (hi - lo)):
+        exact = (np.sin(a * hi) - np.sin(a * lo)) / (a * (hi - lo))
+        assert abs(w @ np.cos(a * x) - exact) < 1e-13, a
