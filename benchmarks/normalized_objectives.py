@@ -20,7 +20,7 @@ reused).  Then, read back from each run's results.json:
 * per config, the spread of the extremes over the seeds (relative to their
   mean): how far the seeds agree on the scale.
 
-``tests/test_polish.py`` checks the same on small budgets in the test suite.
+``tests/test_normalized_terms.py`` checks the same on small budgets in the test suite.
 """
 from __future__ import annotations
 
