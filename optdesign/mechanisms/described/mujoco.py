@@ -129,6 +129,10 @@ def mjcf(mech) -> str:
 
 def actuated_joints(mech) -> list[str]:
     """The names of the actuated joints of :func:`mjcf`'s model (slides and hinges, leg order)."""
+    if _chains(mech):
+        from .mujoco_chains import actuated_joints as chain_actuated
+
+        return chain_actuated(mech)
     return [f"act{i}" for i in range(len(mech.constants.kind))]
 
 
@@ -136,7 +140,7 @@ def state_at(mech, X) -> tuple[np.ndarray, np.ndarray]:
     """qpos of :func:`mjcf`'s model at rest at the pose X (dof,) (our
     kinematics: every loop closed) and the actuator values there (n_act,)."""
     mm = DescribedModel(mech)
-    z = np.zeros(mech.pose_spec.dof)
+    z = np.zeros(np.asarray(X, float).size)      # at rest, in the pose's (independent) coordinates
     qpos, _, _ = mm.state(X, z, z)
     return qpos, qpos[mm.act_q].copy()
 

@@ -83,9 +83,12 @@ def mjcf(mech) -> str:
         depth = 0
         for j, code in enumerate(leg.codes):
             a, c = leg.axis[j], leg.point[j]
+            # qpos reads the joint's value (MuJoCo's ref: the value at the reference configuration), so
+            # that a servo's target is the actuator value of our inverse kinematics
+            ref = f' ref="{float(leg.offset[j]):.17g}"' if float(leg.offset[j]) != 0.0 else ""
             ind = "    " + "  " * depth
             if code == PARA:
-                L += [f'{ind}<body name="c{i}_{j}s">', f'{ind}  <joint name="c{i}_{j}" type="hinge" axis="{_v(a)}" pos="{_v(c)}"/>',
+                L += [f'{ind}<body name="c{i}_{j}s">', f'{ind}  <joint name="c{i}_{j}" type="hinge" axis="{_v(a)}" pos="{_v(c)}"{ref}/>',
                       f'{ind}  <inertial pos="{_v(c)}" mass="{MIN}" diaginertia="{MIN} {MIN} {MIN}"/>']
                 depth += 1
                 ind = "    " + "  " * depth
@@ -94,7 +97,7 @@ def mjcf(mech) -> str:
                 eqs.append(f'    <joint joint1="c{i}_{j}b" joint2="c{i}_{j}" polycoef="0 -1 0 0 0"/>')
             else:
                 kind = "slide" if code == SLIDE else "hinge"
-                L += [f'{ind}<body name="c{i}_{j}">', f'{ind}  <joint name="c{i}_{j}" type="{kind}" axis="{_v(a)}" pos="{_v(c)}"/>']
+                L += [f'{ind}<body name="c{i}_{j}">', f'{ind}  <joint name="c{i}_{j}" type="{kind}" axis="{_v(a)}" pos="{_v(c)}"{ref}/>']
             m = masses.get(j)
             if m is not None and float(m[0]) > 0:
                 L.append(f'{ind}  <inertial pos="{_v(m[1])}" mass="{float(m[0]):.17g}" fullinertia="{_full(m[2])}"/>')
@@ -109,6 +112,12 @@ def mjcf(mech) -> str:
         eqs.insert(0, f'    <{kind} site1="end{i}" site2="plat{i}" solref="2e-4 1" solimp="0.9999 0.9999 0.001 0.5 2"/>')
     L += ['  </worldbody>', '  <equality>', *eqs, '  </equality>', '</mujoco>']
     return "\n".join(L) + "\n"
+
+
+def actuated_joints(mech) -> list[str]:
+    """The names of the actuated joints of :func:`mjcf`'s model (hinges or slides, actuator order)."""
+    legs = mech.chain_constants.legs
+    return [f"c{i}_{legs[i].act}" for _, _, i in mech.description.actuators]
 
 
 class ChainModel:
@@ -137,6 +146,7 @@ class ChainModel:
         for _, src, i in mech.description.actuators:
             acts.append(self.joints[i][cc.legs[i].act][1])
         self.act_v = np.array(acts, dtype=int)
+        self.act_q = np.array([self.joints[i][cc.legs[i].act][0] for _, _, i in mech.description.actuators], dtype=int)
         self.pairs = [(sid(f"end{i}"), sid(f"plat{i}"), leg.closure) for i, leg in enumerate(cc.legs)]
         self.passive = np.setdiff1d(np.arange(m.nv), self.act_v)
 
@@ -186,9 +196,10 @@ class ChainModel:
         off = 0
         for i, (leg, adr) in enumerate(zip(self.legs, self.joints)):
             for j, (qa, va, second) in enumerate(adr):
-                qpos[qa], qvel[va], qacc[va] = core["theta"][i][0, j], ud[off + j], udd[off + j]
-                if second is not None:
-                    qpos[second[0]], qvel[second[1]], qacc[second[1]] = -qpos[qa], -ud[off + j], -udd[off + j]
+                th = core["theta"][i][0, j]
+                qpos[qa], qvel[va], qacc[va] = th + float(leg.offset[j]), ud[off + j], udd[off + j]
+                if second is not None:       # no ref: the joint equality ties the deviations from qpos0
+                    qpos[second[0]], qvel[second[1]], qacc[second[1]] = -th, -ud[off + j], -udd[off + j]
             off += leg.k
         return qpos, qvel, qacc
 
