@@ -233,3 +233,32 @@ def test_a_copied_designs_snippet_is_the_front_design_in_a_config(tmp_path):
             got = cfg.design(f"{name}_{i + 1}")
             for k, a in front.designs.items():
                 assert got[k] == pytest.approx(float(a[i]), rel=1e-11), (name, i, k)
+
+
+def test_chain_drawing_is_the_chains_own_geometry():
+    """3-PRS: each leg is drawn rail zero -> revolute on the slider -> platform
+    joint; the slider sits on its vertical rail at the actuator value of the
+    inverse kinematics, the rod keeps its length L, the platform joint is
+    o + R r_p of our pose (parasitic x, y, yaw included), and an unreachable
+    pose is NaN."""
+    cfg = load_config("configs/prs3.yaml")
+    mech = build(cfg, "reference")
+    X = _poses(cfg, 20)
+    dr = mech.drawing(X)
+    fr = mech.state(X).core["st"]["frames"]
+    q = mech.inverse(X)
+    L = float(mech.params["L"])
+    for i, leg in enumerate(dr["legs"]):
+        assert leg.shape == (len(X), 3, 3)
+        np.testing.assert_allclose(leg[:, 1, 2] - leg[:, 0, 2], q[:, i], rtol=0, atol=1e-12)    # on the rail
+        np.testing.assert_allclose(leg[:, 1, :2], leg[:, 0, :2], rtol=0, atol=1e-12)             # vertical rail
+        np.testing.assert_allclose(np.linalg.norm(leg[:, 2] - leg[:, 1], axis=-1), L, rtol=0, atol=1e-12)
+        P = np.asarray(mech.chain_constants.legs[i].P, float)
+        np.testing.assert_allclose(leg[:, 2], fr.origin.reshape(-1, 3) + np.einsum("nij,j->ni", fr.R.reshape(-1, 3, 3), P),
+                                   rtol=0, atol=1e-12)
+    assert np.abs(fr.origin.reshape(-1, 3)[:, :2]).max() > 1e-5     # the parasitic motion is drawn
+    wild = np.array([[0.25, r, p] for r in (-3.0, -1.5, 0.0, 1.5, 3.0) for p in (-3.0, -1.5, 0.0, 1.5, 3.0)])
+    reach = mech.reachable(wild)
+    assert reach.any() and not reach.all()
+    nan = np.isnan(mech.drawing(wild)["platform"]).all(axis=(1, 2))
+    assert np.array_equal(nan, ~reach)

@@ -342,7 +342,9 @@ class ChainMechanism(ChainScrews, ChainDynamics, ChainChecks, DescribedMechanism
         return None
 
     def drawing(self, X):
-        return None
+        from .drawing import chain_drawing
+
+        return chain_drawing(self, X)
 
 
 def chain_attributes(desc, attrs) -> dict:
