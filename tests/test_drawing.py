@@ -248,6 +248,9 @@ def test_chain_drawing_is_the_chains_own_geometry():
     fr = mech.state(X).core["st"]["frames"]
     q = mech.inverse(X)
     L = float(mech.params["L"])
+    assert dr["rods"].shape == (len(X), 3, 2, 3)
+    np.testing.assert_allclose(dr["rod_lengths"], L, rtol=0, atol=1e-12)
+    _check_rods(dr)
     for i, leg in enumerate(dr["legs"]):
         assert leg.shape == (len(X), 3, 3)
         np.testing.assert_allclose(leg[:, 1, 2] - leg[:, 0, 2], q[:, i], rtol=0, atol=1e-12)    # on the rail

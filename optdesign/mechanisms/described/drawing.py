@@ -43,12 +43,12 @@ def chain_drawing(mech, X) -> dict:
     ok = np.asarray(core["reachable"]).reshape(N)
     fr = core["st"]["frames"]
     R, o = fr.R.reshape(N, 3, 3), fr.origin.reshape(N, 3)
-    legs = []
+    legs, rods = [], []
     for i, leg in enumerate(mech.chain_constants.legs):
         d = leg.as_dict()
         th = np.asarray(core["theta"][i], dtype=float).reshape(N, leg.k)
         ch = chain_poe(d, np.nan_to_num(th), links=True)
-        at = lambda v, j: np.broadcast_to(np.asarray(v, float)[..., j, :], (N, 3))  # noqa: E731
+        at = lambda v, j: np.broadcast_to(np.asarray(v, float)[..., j, :], (N, 3))
         end = _mv(ch["Rs"][leg.k], np.broadcast_to(np.asarray(d["end"], float), (N, 3))) + ch["ps"][leg.k]
         pts, last = [], None
         for j in range(leg.k):
@@ -63,18 +63,23 @@ def chain_drawing(mech, X) -> dict:
             if pt is None:
                 nxt = pts[n + 1][1] if n + 1 < len(pts) else end
                 pts[n] = (j, nxt - _mv(ch["Rs"][j], at(d["axis"], j)) * th[:, j:j + 1])
-        chain = [pt for _, pt in pts]
         j_last = pts[-1][0] if pts else None
         same_end = (j_last is not None and d["codes"][j_last] != SLIDE
                     and np.allclose(np.asarray(d["point"], float)[..., j_last, :], np.asarray(d["end"], float), rtol=0, atol=1e-12))
         if not same_end:
-            chain.append(end)
-        legs.append(np.stack(chain, axis=1))
+            pts.append((leg.k, end))
+        legs.append(np.stack([pt for _, pt in pts], axis=1))
+        # the last link, a rod where no slide lies between its two joints
+        if len(pts) > 2 and SLIDE not in d["codes"][pts[-2][0]:pts[-1][0]]:
+            rods.append(np.where(ok[:, None, None], np.stack([pts[-2][1], pts[-1][1]], axis=1), np.nan))
     C = mech.constants if mech.description.legs else None
     for k in range(len(mech.description.legs)):        # shorthand legs: base point to platform point
         A = np.broadcast_to(np.asarray(C.A, float)[k], (N, 3))
         b = o + _mv(R, np.broadcast_to(np.asarray(C.P, float)[k], (N, 3)))
         legs.append(np.stack([A, b], axis=1))
     legs = [np.where(ok[:, None, None], leg, np.nan) for leg in legs]
+    rods = np.stack(rods, axis=1) if rods else np.zeros((N, 0, 2, 3))
+    seg = np.linalg.norm(rods[:, :, 1] - rods[:, :, 0], axis=-1)
+    lengths = seg[np.flatnonzero(ok)[0]] if ok.any() else np.full(rods.shape[1], np.nan)
     return {"base": np.stack([leg[:, 0] for leg in legs], axis=1), "platform": np.stack([leg[:, -1] for leg in legs], axis=1),
-            "joints": np.concatenate(legs, axis=1), "legs": legs, "rods": np.zeros((N, 0, 2, 3)), "rod_lengths": np.zeros(0)}
+            "joints": np.concatenate(legs, axis=1), "legs": legs, "rods": rods, "rod_lengths": lengths}
