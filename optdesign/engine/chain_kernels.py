@@ -1,0 +1,495 @@
+"""The engine's kernel of chain mechanisms (docs/lower-mobility.md): one
+compiled code for every chain shape (joint kinds, counts and sizes read at
+run time from the arrays of :mod:`.chain_layout`), so a new chain shape does
+not compile again.
+
+Per (design, workspace point), the numpy path's formulas
+(:mod:`optdesign.mechanisms.described.chain_solve`, ``.chain_poe``,
+``.chain_dynamics``), as scalar code per point (:mod:`.chain_closure`,
+:mod:`.chain_dense`):
+
+* the defined branch: the continuation from the design's home configuration
+  (solved by the numpy path, passed in ``UH``) along the straight segment
+  from the home pose's independent coordinates to the point, with the numpy
+  path's adaptive steps, tests and tolerances;
+* du/dx = -Fu^+ Fp at the solution, the Jacobian J = dq/dx (chain actuators
+  from du/dx, shorthand legs from their closed forms: G S P), through the
+  declared coordinate map's derivative Df where there is one;
+* the mass matrix M_p in the independent coordinates from the platform and
+  every link with a mass (:func:`_mass`; shorthand legs' bodies are not
+  here: the packing leaves the dynamic index of such mechanisms to the numpy
+  path);
+
+then the engine's tail on blocks of BLK points (:func:`.kernels.tail_j`,
+``tail_w``, ``tail_codes``): J^-1, the singular values, W = U^T M_p, the
+reach codes (0 unreachable, 1 reachable, 2 left to the numpy path), and the
+same chunk statistics as :func:`.kernels.run_tasks`, so results do not
+depend on the number of threads.  The values agree with the numpy path's to
+round-off (its LAPACK solves against this scalar code), not bit for bit.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numba.extending import register_jitable
+
+from ..fast._jit import JITABLE as _JITABLE
+from ..fast._jit import NJIT as _NJIT
+from . import kernels as _kernels
+from .chain_closure import _continuation, _system
+from .chain_dense import _lsq
+from .chain_layout import (
+    B_C,
+    B_I,
+    B_M,
+    F_COM,
+    F_IP,
+    F_L,
+    F_MP,
+    F_P0,
+    G_ACT,
+    G_VOFF,
+    H_DOF,
+    H_N,
+    H_NEQ,
+    H_NU,
+    H_NVAR,
+    H_PTYPE,
+    S_A,
+    S_LA,
+    S_LR,
+    S_P,
+    S_R0,
+    S_S0,
+    S_SIGN,
+    S_U,
+)
+from .kernels import WORDS, _carve, _chunk_stats, combine, tail_codes, tail_j, tail_w  # noqa: F401 (WORDS, combine)
+from .layout import BLK, CHUNK, NMAX, NVAL, VOK
+
+#: numba's cache of these kernels watches this file only: it records the
+#: digest of the other files compiled into them (kernels.py and its own
+#: sources, the chain modules); tests/test_chain_compiled.py checks it
+CHAIN_DIGEST = "603acbf545951128"
+
+_SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py",
+            "engine/chain_closure.py") + _kernels._SOURCES
+
+
+def chain_digest() -> str:
+    """sha256 (first 16 hex digits) of the files compiled into these kernels besides this one."""
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.sha256()
+    top = Path(__file__).parents[1]
+    for rel in _SOURCES:
+        h.update((top / rel).read_bytes())
+    return h.hexdigest()[:16]
+
+
+if chain_digest() != CHAIN_DIGEST or not _kernels._NJIT.get("cache", True):
+    import warnings
+
+    warnings.warn(f"{__name__}: {', '.join(_SOURCES)} changed (digest {chain_digest()}, recorded {CHAIN_DIGEST}): "
+                  "the chain kernels compile without numba's cache until CHAIN_DIGEST is updated",
+                  RuntimeWarning, stacklevel=1)
+    _NJIT = {**_NJIT, "cache": False}
+
+
+# ---------------------------------------------------------------------- J and M_p at a solution
+@register_jitable(**_JITABLE)
+def _shorthand(kind, branch, SFi, o, R, G):
+    """A shorthand leg's twist row G (6,) at the platform frame (o, R)
+    (legs.leg_state); False where the leg does not close."""
+    P0 = SFi[S_P]
+    P1 = SFi[S_P + 1]
+    P2 = SFi[S_P + 2]
+    r0 = R[0, 0] * P0 + R[0, 1] * P1 + R[0, 2] * P2
+    r1 = R[1, 0] * P0 + R[1, 1] * P1 + R[1, 2] * P2
+    r2 = R[2, 0] * P0 + R[2, 1] * P1 + R[2, 2] * P2
+    b0 = o[0] + r0
+    b1 = o[1] + r1
+    b2 = o[2] + r2
+    A0 = SFi[S_A]
+    A1 = SFi[S_A + 1]
+    A2 = SFi[S_A + 2]
+    w0 = b0 - A0
+    w1 = b1 - A1
+    w2 = b2 - A2
+    ww = w0 * w0 + w1 * w1 + w2 * w2
+    Lr = SFi[S_LR]
+    if kind == 0:
+        U0 = SFi[S_U]
+        U1 = SFi[S_U + 1]
+        U2 = SFi[S_U + 2]
+        uw = U0 * w0 + U1 * w1 + U2 * w2
+        disc = Lr ** 2 - ww + uw * uw
+        if not disc >= 0.0:
+            return False
+        root = math.sqrt(disc)
+        qm = uw - root
+        qp = uw + root
+        plus = branch == 1
+        if branch >= 2:
+            am = (A0 + qm * U0) ** 2 + (A1 + qm * U1) ** 2 + (A2 + qm * U2) ** 2
+            ap = (A0 + qp * U0) ** 2 + (A1 + qp * U1) ** 2 + (A2 + qp * U2) ** 2
+            far = ap > am
+            plus = far if branch == 2 else not far
+        q = qp if plus else qm
+        den = -root if plus else root
+        d0 = b0 - (A0 + q * U0)
+        d1 = b1 - (A1 + q * U1)
+        d2 = b2 - (A2 + q * U2)
+    elif kind == 1:
+        La = SFi[S_LA]
+        sg = SFi[S_SIGN]
+        Pc = w0 * SFi[S_R0] + w1 * SFi[S_R0 + 1] + w2 * SFi[S_R0 + 2]
+        Qc = w0 * SFi[S_S0] + w1 * SFi[S_S0 + 1] + w2 * SFi[S_S0 + 2]
+        Cc = (ww + La * La - Lr ** 2) / (2.0 * La)
+        h2 = Pc * Pc + Qc * Qc - Cc * Cc
+        if not h2 >= 0.0 or sg != sg:
+            return False
+        hh = math.sqrt(h2)
+        phi0 = math.atan2(Qc, Pc)
+        delta = math.atan2(hh, Cc)
+        plus = sg > 0
+        q = phi0 + delta if plus else phi0 - delta
+        q = q - 2.0 * np.pi * np.round(q / (2.0 * np.pi))
+        cq = math.cos(q)
+        sq = math.sin(q)
+        den = -La * hh if plus else La * hh
+        d0 = b0 - (A0 + La * (cq * SFi[S_R0] + sq * SFi[S_S0]))
+        d1 = b1 - (A1 + La * (cq * SFi[S_R0 + 1] + sq * SFi[S_S0 + 1]))
+        d2 = b2 - (A2 + La * (cq * SFi[S_R0 + 2] + sq * SFi[S_S0 + 2]))
+    else:
+        den = math.sqrt(ww)
+        d0 = w0
+        d1 = w1
+        d2 = w2
+    G[0] = d0 / den
+    G[1] = d1 / den
+    G[2] = d2 / den
+    G[3] = (r1 * d2 - r2 * d1) / den
+    G[4] = (r2 * d0 - r0 * d2) / den
+    G[5] = (r0 * d1 - r1 * d0) / den
+    return True
+
+
+@register_jitable(**_JITABLE)
+def _mass(Xi, Um, o, R, GFd, legs, bod, BFd, tw, Rl, pl, n, M, T6):
+    """M_p (n, n) in the independent coordinates (chain_dynamics.chain_dynamics's
+    M): the platform through Xi = S P (6, n) and every link with a mass through
+    its twist sum_(j<=v) T_j du_j/dx (Um = du/dx, mapped)."""
+    for a in range(n):
+        for b in range(n):
+            M[a, b] = 0.0
+    nb = bod.shape[0]
+    for bi in range(-1, nb):
+        if bi < 0:          # the platform
+            m = GFd[F_MP]
+            c0 = GFd[F_COM]
+            c1 = GFd[F_COM + 1]
+            c2 = GFd[F_COM + 2]
+            Ro = R
+            p0 = o[0]
+            p1 = o[1]
+            p2 = o[2]
+            Ib = GFd[F_IP:F_IP + 9]
+            for c in range(n):
+                for a in range(6):
+                    T6[a, c] = Xi[a, c]
+            # T6's rows 3..5 are the velocity of the origin: the point at o has v + w x 0
+            cx = Ro[0, 0] * c0 + Ro[0, 1] * c1 + Ro[0, 2] * c2
+            cy = Ro[1, 0] * c0 + Ro[1, 1] * c1 + Ro[1, 2] * c2
+            cz = Ro[2, 0] * c0 + Ro[2, 1] * c1 + Ro[2, 2] * c2
+            # Xi is (v_o, omega): reorder into (omega, v) at the centre below
+            for c in range(n):
+                v0 = T6[0, c]
+                v1 = T6[1, c]
+                v2 = T6[2, c]
+                w0 = T6[3, c]
+                w1 = T6[4, c]
+                w2 = T6[5, c]
+                T6[0, c] = w0
+                T6[1, c] = w1
+                T6[2, c] = w2
+                T6[3, c] = v0 + (w1 * cz - w2 * cy)
+                T6[4, c] = v1 + (w2 * cx - w0 * cz)
+                T6[5, c] = v2 + (w0 * cy - w1 * cx)
+        else:
+            li = bod[bi, 0]
+            v = bod[bi, 1]
+            voff = legs[li, G_VOFF]
+            m = BFd[bi, B_M]
+            c0 = BFd[bi, B_C]
+            c1 = BFd[bi, B_C + 1]
+            c2 = BFd[bi, B_C + 2]
+            Ro = Rl[voff + v]
+            p0 = pl[voff + v, 0]
+            p1 = pl[voff + v, 1]
+            p2 = pl[voff + v, 2]
+            Ib = BFd[bi, B_I:B_I + 9]
+            cx = Ro[0, 0] * c0 + Ro[0, 1] * c1 + Ro[0, 2] * c2 + p0
+            cy = Ro[1, 0] * c0 + Ro[1, 1] * c1 + Ro[1, 2] * c2 + p1
+            cz = Ro[2, 0] * c0 + Ro[2, 1] * c1 + Ro[2, 2] * c2 + p2
+            for c in range(n):
+                for a in range(6):
+                    s = tw[voff, a] * Um[voff, c]
+                    for j in range(1, v + 1):
+                        s += tw[voff + j, a] * Um[voff + j, c]
+                    T6[a, c] = s
+            # (omega; v at the base origin) -> the velocity of the centre v + omega x c
+            for c in range(n):
+                w0 = T6[0, c]
+                w1 = T6[1, c]
+                w2 = T6[2, c]
+                T6[3, c] = T6[3, c] + (w1 * cz - w2 * cy)
+                T6[4, c] = T6[4, c] + (w2 * cx - w0 * cz)
+                T6[5, c] = T6[5, c] + (w0 * cy - w1 * cx)
+        # I_w = Ro I Ro^T
+        for a in range(n):
+            for b in range(a, n):
+                s = m * (T6[3, a] * T6[3, b] + T6[4, a] * T6[4, b] + T6[5, a] * T6[5, b])
+                for x in range(3):
+                    ix = 0.0
+                    for y in range(3):
+                        iw = 0.0
+                        for k in range(3):
+                            iw += Ro[x, k] * (Ib[k * 3] * Ro[y, 0] + Ib[k * 3 + 1] * Ro[y, 1] + Ib[k * 3 + 2] * Ro[y, 2])
+                        ix += iw * T6[y, b]
+                    s += T6[x, a] * ix
+                M[a, b] += s
+    for a in range(n):
+        for b in range(a):
+            M[a, b] = M[b, a]
+
+
+# ---------------------------------------------------------------------- one point
+@register_jitable(**_JITABLE)
+def _workspace(dof, n, nvar, nu, neq):
+    """One thread's per-point scratch for these sizes."""
+    r = max(n, 1)
+    wk = (np.zeros(dof), np.zeros(6), np.zeros(3), np.zeros((3, 3)), np.zeros((6, dof)), np.zeros((nvar, 6)),
+          np.zeros((nvar, 3, 3)), np.zeros((nvar, 3)), np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3))
+    cur = (np.zeros(nu), np.zeros(neq), np.zeros((neq, nu)), np.zeros((neq, n)))
+    new = (np.zeros(nu), np.zeros(neq), np.zeros((neq, nu)), np.zeros((neq, n)))
+    la = (np.zeros((max(neq, nu), nu)), np.zeros((max(neq, nu), r)), np.zeros((nu, r)),
+          np.zeros(max(neq, nu) + 1, dtype=np.int64), np.zeros((neq, 1)))
+    vec = (np.zeros(nu), np.zeros(nu), np.zeros(n), np.zeros(n))
+    mats = (np.zeros(nu), np.zeros((nu, nu)), np.zeros((nu, n)), np.zeros((dof, n)), np.zeros((6, n)),
+            np.zeros((n, n)), np.zeros((6, n)), np.zeros(6), np.zeros((n, n)))
+    return wk, cur, new, la, vec, mats
+
+
+@register_jitable(**_JITABLE)
+def _weights(hdr, roles, cidx, vcode, GFd, wt):
+    """Per unknown: L for angles, 1 for lengths (the continuation's jump test;
+    ChainMechanism._weights)."""
+    L = GFd[F_L]
+    nvar = hdr[H_NVAR]
+    for v in range(nvar):
+        wt[v] = 1.0 if vcode[v] == 1 else L
+    for i in range(hdr[H_DOF]):
+        c = cidx[i]
+        if c < 0:
+            wt[nvar - 1 - c] = L if roles[i] >= 3 else 1.0
+
+
+@register_jitable(**_JITABLE)
+def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
+    """J (n, n) and, with dyn_, M_p (n, n) of one design at the independent
+    coordinates x (the pose's, through the map) into ws's mats[5], mats[8];
+    False where the point is not reachable (no solution on the branch, a
+    rank-deficient Fu, a shorthand leg that does not close, J not finite)."""
+    hdr, roles, cidx, legs, vcode, acts, sh, bod = I
+    ptype = hdr[H_PTYPE]
+    dof = hdr[H_DOF]
+    n = hdr[H_N]
+    nvar = hdr[H_NVAR]
+    nu = hdr[H_NU]
+    neq = hdr[H_NEQ]
+    wk, cur, new, la, vec, mats = ws
+    wt, G, Um, P, Xi, Jp, T6, Gs, Mp = mats
+    W, Wb, X1, piv, _ = la
+    args = (ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, neq, wk)
+    if not _continuation(x, uh, GFd[F_P0:F_P0 + n], wt, args, cur, new, la, vec, G):
+        return False
+    u, F, Fu, Fp = cur
+    # the system again at the solution (as chain_state), then du/dx = -Fu^+ Fp
+    _system(u, x, ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, F, Fu, Fp, wk)
+    if not _lsq(Fu, Fp, neq, nu, n, X1, W, Wb, piv):
+        return False
+    for r in range(nu):
+        for c in range(n):
+            s = 0.0
+            for k in range(n):
+                s += X1[r, k] * Df[k * n + c]
+            Um[r, c] = -s
+    for i in range(dof):
+        ci = cidx[i]
+        for c in range(n):
+            P[i, c] = Df[ci * n + c] if ci >= 0 else Um[nvar - 1 - ci, c]
+    R = wk[3]
+    o = wk[2]
+    S = wk[4]
+    for a in range(6):
+        for c in range(n):
+            s = 0.0
+            for i in range(dof):
+                s += S[a, i] * P[i, c]
+            Xi[a, c] = s
+    for a in range(n):
+        src = acts[a, 0]
+        li = acts[a, 1]
+        if src == 0:
+            row = legs[li, G_VOFF] + legs[li, G_ACT]
+            for c in range(n):
+                Jp[a, c] = Um[row, c]
+        else:
+            if not _shorthand(sh[li, 0], sh[li, 1], SFd[li], o, R, Gs):
+                return False
+            for c in range(n):
+                s = 0.0
+                for k in range(6):
+                    s += Gs[k] * Xi[k, c]
+                Jp[a, c] = s
+    for a in range(n):
+        for c in range(n):
+            x_ = Jp[a, c]
+            if not (x_ - x_ == 0.0):
+                return False
+    if dyn_:
+        _mass(Xi, Um, o, R, GFd, legs, bod, BFd, wk[5], wk[6], wk[7], n, Mp, T6)
+    return True
+
+
+@register_jitable(**_JITABLE)
+def _w_of(U, Mb, Wm, n, m):
+    """W = U^T M_p (rows of BLK; U upper triangular for n >= 4, as tail_j leaves it)."""
+    upper = n >= 4
+    for i in range(n):
+        for b in range(n):
+            ow = (i * n + b) * BLK
+            kmax = i + 1 if upper else n
+            for j in range(m):
+                s = 0.0
+                for k in range(kmax):
+                    s += U[(k * n + i) * BLK + j] * Mb[(k * n + b) * BLK + j]
+                Wm[ow + j] = s
+
+
+@register_jitable(**_JITABLE)
+def _chain_block(I, VFd, LFd, SFd, BFd, GFd, uh, PXd, lo, m, want, flags, scratch, vb, cb, ws):
+    """Values and reach codes of one design at the m points lo.. of PXd: value
+    v of point j into vb[v CHUNK + j], its code into cb[j] (as kernels._block)."""
+    n = I[0][H_N]
+    dyn_ = flags[0]
+    _, mats, _, T, V, S = scratch
+    J = mats[0]
+    U = mats[1]
+    Mb = mats[2]
+    Wm = mats[3]
+    Jp = ws[5][5]
+    Mp = ws[5][8]
+    for j in range(m):
+        row = PXd[lo + j]
+        ok = _point(I, VFd, LFd, SFd, BFd, GFd, uh, row[:n], row[n:], dyn_, ws)
+        V[VOK * BLK + j] = 1.0 if ok else 0.0
+        for r in range(n):
+            for c in range(n):
+                e = 1.0 if r == c else 0.0
+                J[(r * n + c) * BLK + j] = Jp[r, c] if ok else e
+                if dyn_:
+                    Mb[(r * n + c) * BLK + j] = Mp[r, c] if ok else e
+    tail_j(J, U, V, T, S, vb, cb, n, m, flags, None)
+    if dyn_:
+        _w_of(U, Mb, Wm, n, m)
+        tail_w(Wm, V, T, S, vb, n, m, None)
+    tail_codes(vb, cb, want, m)
+
+
+# ---------------------------------------------------------------------- the tasks
+@njit(nogil=True, **_NJIT)
+def run_tasks(w, nw, I, VF, LF, SF, BF, GF, UH, PX, N, want, flags, codes, part, cnt, keep, buf):
+    """Tasks w, w + nw, ... of the D ceil(N / CHUNK) tasks (CHUNK points of one
+    design each), as :func:`.kernels.run_tasks`: reach codes into codes (D,
+    N), each task's statistics into part (D, nch, NVAL, 4) and its count into
+    cnt (D, nch); keep (D, NVAL, N) every point's wanted values, or (0, 0, 0).
+    I: the integer arrays (hdr, roles, cidx, legs, vcode, acts, sh, bod); VF,
+    LF, SF, BF, GF, UH: the per-design arrays; PX (1 or D, N, n + n n): the
+    points (:mod:`.chain_layout`); flags (6,): dynamic, sigma_min, sigma_max,
+    column norms (the rest unused).  Releases the GIL."""
+    hdr = I[0]
+    n = hdr[H_N]
+    D = GF.shape[0]
+    nch = (N + CHUNK - 1) // CHUNK
+    ntask = D * nch
+    if n < 1 or n > NMAX or w >= ntask:
+        return
+    scratch, _, vals, cbuf = _carve(buf[w], n)
+    ws = _workspace(hdr[H_DOF], n, hdr[H_NVAR], hdr[H_NU], hdr[H_NEQ])
+    wt = ws[5][0]
+    per_design = PX.shape[0] > 1
+    for t in range(w, ntask, nw):
+        d = t // nch
+        c = t % nch
+        lo = c * CHUNK
+        n_pts = min(lo + CHUNK, N) - lo
+        PXd = PX[d] if per_design else PX[0]
+        _weights(hdr, I[1], I[2], I[4], GF[d], wt)
+        for b in range(0, n_pts, BLK):
+            m = min(BLK, n_pts - b)
+            _chain_block(I, VF[d], LF[d], SF[d], BF[d], GF[d], UH[d], PXd, lo + b, m, want, flags, scratch,
+                         vals[b:], cbuf[b:], ws)
+        cnt[d, c] = _chunk_stats(vals, cbuf, n_pts, want, part[d, c])
+        cd = codes[d, lo:lo + n_pts]
+        for j in range(n_pts):
+            cd[j] = np.int8(cbuf[j])
+        if keep.shape[0] > 0:
+            for v in range(NVAL):
+                if want[v]:
+                    kv = keep[d, v, lo:lo + n_pts]
+                    for j in range(n_pts):
+                        kv[j] = vals[v * CHUNK + j]
+
+
+# ---------------------------------------------------------------------- tests: the routines on stacks
+@njit(**_NJIT)
+def system_stack(I, VF, LF, GF, U, Pin):
+    """(F (K, neq), Fu (K, neq, nu), Fp (K, neq, n)) of design k at unknowns
+    U[k] and independent coordinates Pin[k] (chain_solve.ik_system)."""
+    hdr = I[0]
+    K = U.shape[0]
+    dof, n, nvar, nu, neq = hdr[H_DOF], hdr[H_N], hdr[H_NVAR], hdr[H_NU], hdr[H_NEQ]
+    ws = _workspace(dof, n, nvar, nu, neq)
+    F = np.zeros((K, neq))
+    Fu = np.zeros((K, neq, nu))
+    Fp = np.zeros((K, neq, n))
+    for k in range(K):
+        _system(U[k], Pin[k], hdr[H_PTYPE], I[1], I[2], I[3], I[4], VF[k], LF[k], GF[k], dof, n, nvar, nu, F[k],
+                Fu[k], Fp[k], ws[0])
+    return F, Fu, Fp
+
+
+@njit(**_NJIT)
+def continuation_stack(I, VF, LF, GF, UH, P1):
+    """(u (K, nu), ok (K,)): the continuation of design k from its home UH[k] to P1[k]."""
+    hdr = I[0]
+    K = P1.shape[0]
+    dof, n, nvar, nu, neq = hdr[H_DOF], hdr[H_N], hdr[H_NVAR], hdr[H_NU], hdr[H_NEQ]
+    ws = _workspace(dof, n, nvar, nu, neq)
+    wk, cur, new, la, vec, mats = ws
+    out = np.full((K, nu), np.nan)
+    ok = np.zeros(K, dtype=np.bool_)
+    args0 = (hdr[H_PTYPE], I[1], I[2], I[3], I[4])
+    for k in range(K):
+        _weights(hdr, I[1], I[2], I[4], GF[k], mats[0])
+        args = args0 + (VF[k], LF[k], GF[k], dof, n, nvar, nu, neq, wk)
+        ok[k] = _continuation(P1[k], UH[k], GF[k, F_P0:F_P0 + n], mats[0], args, cur, new, la, vec, mats[1])
+        if ok[k]:
+            for c in range(nu):
+                out[k, c] = cur[0][c]
+    return out, ok
