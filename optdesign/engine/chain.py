@@ -38,6 +38,9 @@ def run_chain(ints, VF, LF, SF, BF, GF, UH, PX, want, flags, keep=None, stats=Tr
         return None
     D = GF.shape[0]
     N = PX.shape[1]
+    n = int(ints[0][2])
+    if PX.ndim != 3 or PX.shape[2] != n + n * n or PX.shape[0] not in (1, D):
+        raise ValueError(f"points of shape {PX.shape}: expected (1 or {D}, N, {n + n * n})")
     nch = (N + CHUNK - 1) // CHUNK
     codes = np.empty((D, N), dtype=np.int8)
     part = np.empty((D, nch, NVAL, 4))
