@@ -131,6 +131,12 @@ def test_local_values_at_equal_the_numpy_values(name, opt):
         assert np.array_equal(np.isfinite(a), np.isfinite(b) & reach.ravel()), r.name
         ok = np.isfinite(b) & reach.ravel()
         assert np.allclose(a[ok], b[ok], rtol=1e-10, atol=0), r.name
+    # the designs at shared points (the seam local_values)
+    shared = mech.local_values(req, X[0])
+    assert shared is not None
+    for r in req:
+        a, b = shared[0][r.name], got[0][r.name][0]
+        assert np.allclose(a[0], b, rtol=0, atol=0, equal_nan=True), r.name
 
 
 def test_results_do_not_depend_on_the_thread_count():

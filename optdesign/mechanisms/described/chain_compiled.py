@@ -28,7 +28,7 @@ from ...fast import enabled
 from ...formulas import COL0, DYN, NVAL, SMIN, SMIN2, TWO
 from .fallback import merge, numpy_values
 
-__all__ = ["pack", "points", "global_statistics", "local_values_at", "ENV_VAR", "active"]
+__all__ = ["pack", "points", "global_statistics", "local_values", "local_values_at", "ENV_VAR", "active"]
 
 #: the environment variable that turns the chain kernel off (``0``)
 ENV_VAR = "OPTDESIGN_CHAIN_ENGINE"
@@ -228,26 +228,27 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     return summary, cd != 0
 
 
-def local_values_at(mech, requests, X):
-    """The seam ``local_values_at``: each of the D designs at its own K points
-    X (D, K, dof): ``(values {name: (D, K)}, reachable (D, K))``, NaN where not
-    reachable, or None when the kernel does not compute every request."""
+def _point_values(mech, requests, X, per_design: bool):
+    """Every point's values of the requests: X (D, K, dof) each design at its
+    own points (per_design) or X (K, dof) shared by the designs: ``(values
+    {name: (D, K)}, reachable (D, K))``, NaN where not reachable, or None
+    when the kernel does not compute every request."""
     from ...engine.chain import run_chain
 
     X = np.asarray(X, dtype=float)
-    if X.ndim != 3 or X.shape[-1] != mech.dof or X.shape[1] == 0:
+    if X.ndim != (3 if per_design else 2) or X.shape[-1] != mech.dof or X.shape[-2] == 0:
         return None
     got = _prepare(mech, requests)
     if got is None:
         return None
     pl, want, flags, (ints, arrays, D, _) = got
-    if len(pl) != len(requests) or X.shape[0] != D:
+    if len(pl) != len(requests) or (per_design and X.shape[0] != D):
         return None
     try:
-        PX = points(mech, X, True, D)
+        PX = points(mech, X, per_design, D)
     except ValueError:
         return None
-    K = X.shape[1]
+    K = X.shape[-2]
     keep = np.zeros((D, NVAL, K))
     res = run_chain(ints, *arrays, PX, want, flags, keep, stats=False)
     if res is None:
@@ -256,10 +257,25 @@ def local_values_at(mech, requests, X):
     out = {name: (keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()) for name, v, fac in pl}
     dd, kk = np.nonzero(cd == 2)
     if len(dd):
-        extra = numpy_values(mech, X.reshape(D * K, -1), dd, dd * K + kk, _entries(requests, pl))
+        if per_design:
+            extra = numpy_values(mech, X.reshape(D * K, -1), dd, dd * K + kk, _entries(requests, pl))
+        else:
+            extra = numpy_values(mech, X, dd, kk, _entries(requests, pl))
         for i, (name, _, _) in enumerate(pl):
             out[name][dd, kk] = extra[i]
     reach = cd != 0
     for x in out.values():
         x[~reach] = np.nan
     return out, reach
+
+
+def local_values_at(mech, requests, X):
+    """The seam ``local_values_at``: each of the D designs at its own K points
+    X (D, K, dof): ``(values {name: (D, K)}, reachable (D, K))``, NaN where not
+    reachable, or None when the kernel does not compute every request."""
+    return _point_values(mech, requests, X, True)
+
+
+def local_values(mech, requests, X):
+    """The seam ``local_values``: the D designs at the points X (N, dof), as :func:`local_values_at`."""
+    return _point_values(mech, requests, X, False)

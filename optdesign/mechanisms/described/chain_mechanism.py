@@ -342,6 +342,12 @@ class ChainMechanism(ChainScrews, ChainDynamics, ChainChecks, DescribedMechanism
 
         return local_values_at(self, requests, X)
 
+    def local_values(self, requests, X):
+        """The chain kernel's local values of the designs at shared points X (N, dof), or None."""
+        from .chain_compiled import local_values
+
+        return local_values(self, requests, X)
+
     def kernel_source(self, title: str):
         return None
 
