@@ -244,3 +244,32 @@ def test_the_digest_of_the_compiled_sources_is_current():
 
     assert CK.CHAIN_DIGEST == CK.chain_digest(), \
         f"set CHAIN_DIGEST in optdesign/engine/chain_kernels.py to {CK.chain_digest()!r}"
+
+
+def test_points_left_to_the_numpy_path_get_its_values(monkeypatch):
+    """Points the kernel flags (code 2) are evaluated by the numpy path (J and
+    M from the chain mechanism's own formulas): here every third point is
+    flagged by hand, and the values stay the numpy path's."""
+    from optdesign.engine import chain
+    from optdesign.mechanisms.described.chain_compiled import local_values_at
+    from optdesign.mechanisms.described.fallback import numpy_values
+
+    cfg, designs, ws = _case("prs3.yaml", "prs3_opt.yaml", 2, 60, 9)
+    mech = _mech(cfg, designs)
+    req = index_requests(cfg)
+    X = ws.X.reshape(2, 30, -1)
+    run = chain.run_chain
+
+    def flagged(*a, **k):
+        st, cnt, cd = run(*a, **k)
+        cd[:, ::3] = np.where(cd[:, ::3] == 1, 2, cd[:, ::3])
+        return st, cnt, cd
+
+    monkeypatch.setattr(chain, "run_chain", flagged)
+    vals, reach = local_values_at(mech, req, X)
+    ref = numpy_values(mech, X.reshape(60, -1), np.repeat(np.arange(2), 30), np.arange(60),
+                       [(r.kind, r.convention, dict(r.options)) for r in req])
+    for i, r in enumerate(req):
+        a, b = vals[r.name].ravel(), ref[i]
+        assert np.allclose(a, b, rtol=1e-10, atol=0, equal_nan=True), r.name
+        assert np.array_equal(a[::3], b[::3], equal_nan=True), r.name
