@@ -214,7 +214,11 @@ def test_the_system_and_its_derivatives(name, opt):
 def test_the_continuation_follows_the_numpy_branch(name, opt):
     from optdesign.engine.chain import CHAIN_KERNELS
     from optdesign.mechanisms.described.chain_compiled import points
-    from optdesign.mechanisms.described.chain_solve import continuation, flat_constants, ik_system
+    from optdesign.mechanisms.described.chain_solve import (
+        continuation,
+        flat_constants,
+        ik_system,
+    )
 
     CK = CHAIN_KERNELS.require()
     mech, ints, VF, LF, GF, UH = _system_case(name, opt, D=1)

@@ -359,7 +359,7 @@ def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
     for a in range(n):
         for c in range(n):
             x_ = Jp[a, c]
-            if not (x_ - x_ == 0.0):
+            if x_ - x_ != 0.0:
                 return False
     if dyn_:
         _mass(Xi, Um, o, R, GFd, legs, bod, BFd, wk[5], wk[6], wk[7], n, Mp, T6)
