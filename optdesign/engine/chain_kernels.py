@@ -317,9 +317,12 @@ def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
     args = (ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, neq, wk)
     if not _continuation(x, uh, GFd[F_P0:F_P0 + n], wt, args, cur, new, la, vec, G):
         return False
-    u, F, Fu, Fp = cur
-    # the system again at the solution (as chain_state), then du/dx = -Fu^+ Fp
-    _system(u, x, ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, F, Fu, Fp, wk)
+    # du/dx = -Fu^+ Fp at the solution: the continuation's last step ends at p
+    # = x exactly, its Newton's last system (cur's Fu, Fp; the frame and the
+    # chains' motions in wk) is the one at the solution (chain_state evaluates
+    # it again: the same numbers)
+    Fu = cur[2]
+    Fp = cur[3]
     if not _lsq(Fu, Fp, neq, nu, n, X1, W, Wb, piv):
         return False
     for r in range(nu):
