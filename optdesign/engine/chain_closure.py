@@ -302,10 +302,12 @@ def _newton(u, p, tol, target, args, F, Fu, Fp, la):
 
 
 @register_jitable(**_JITABLE)
-def _continuation(p1, u0, p0, wt, args, cur, new, la, vec, G):
+def _continuation(p1, u0, p0, start, wt, args, cur, new, la, vec, G):
     """The solution connected to (u0, p0) along the segment p0 -> p1
     (chain_solve.continuation, one point): into cur's u, with F, Fu, Fp
-    there; False where none is found (a step below H_MIN)."""
+    there; False where none is found (a step below H_MIN).  start: (Fu, Fp)
+    at (u0, p0), the same for every point of a design (:func:`_system`, once
+    per design by the caller)."""
     ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, neq, wk = args
     u, F, Fu, Fp = cur
     un, Fn, Fun, Fpn = new
@@ -319,7 +321,12 @@ def _continuation(p1, u0, p0, wt, args, cur, new, la, vec, G):
     for i in range(n):
         if not _finite(p1[i]):
             return False
-    _system(u, p0, ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, F, Fu, Fp, wk)
+    Fu0, Fp0 = start
+    for i in range(neq):
+        for c in range(nu):
+            Fu[i, c] = Fu0[i, c]
+        for c in range(n):
+            Fp[i, c] = Fp0[i, c]
     t = 0.0
     h = 1.0
     while True:

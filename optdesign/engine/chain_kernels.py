@@ -72,7 +72,7 @@ from .layout import BLK, CHUNK, NMAX, NVAL, VOK
 #: numba's cache of these kernels watches this file only: it records the
 #: digest of the other files compiled into them (kernels.py and its own
 #: sources, the chain modules); tests/test_chain_compiled.py checks it
-CHAIN_DIGEST = "603acbf545951128"
+CHAIN_DIGEST = "ef9b52784f4b4fde"
 
 _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py",
             "engine/chain_closure.py") + _kernels._SOURCES
@@ -281,7 +281,21 @@ def _workspace(dof, n, nvar, nu, neq):
     vec = (np.zeros(nu), np.zeros(nu), np.zeros(n), np.zeros(n))
     mats = (np.zeros(nu), np.zeros((nu, nu)), np.zeros((nu, n)), np.zeros((dof, n)), np.zeros((6, n)),
             np.zeros((n, n)), np.zeros((6, n)), np.zeros(6), np.zeros((n, n)))
-    return wk, cur, new, la, vec, mats
+    # the system at the design's home (u0, p0): F, Fu, Fp
+    home = (np.zeros(neq), np.zeros((neq, nu)), np.zeros((neq, n)))
+    return wk, cur, new, la, vec, mats, home
+
+
+@register_jitable(**_JITABLE)
+def _design(I, VFd, LFd, GFd, uh, ws):
+    """Per design, before its points: the continuation's weights and the
+    system at its home configuration (the start of every point's segment)."""
+    hdr, roles, cidx, legs, vcode = I[0], I[1], I[2], I[3], I[4]
+    n = hdr[H_N]
+    _weights(hdr, roles, cidx, vcode, GFd, ws[5][0])
+    F0, Fu0, Fp0 = ws[6]
+    _system(uh, GFd[F_P0:F_P0 + n], hdr[H_PTYPE], roles, cidx, legs, vcode, VFd, LFd, GFd, hdr[H_DOF], n,
+            hdr[H_NVAR], hdr[H_NU], F0, Fu0, Fp0, ws[0])
 
 
 @register_jitable(**_JITABLE)
@@ -311,11 +325,11 @@ def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
     nvar = hdr[H_NVAR]
     nu = hdr[H_NU]
     neq = hdr[H_NEQ]
-    wk, cur, new, la, vec, mats = ws
+    wk, cur, new, la, vec, mats, home = ws
     wt, G, Um, P, Xi, Jp, T6, Gs, Mp = mats
     W, Wb, X1, piv, _ = la
     args = (ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, neq, wk)
-    if not _continuation(x, uh, GFd[F_P0:F_P0 + n], wt, args, cur, new, la, vec, G):
+    if not _continuation(x, uh, GFd[F_P0:F_P0 + n], home[1:], wt, args, cur, new, la, vec, G):
         return False
     # du/dx = -Fu^+ Fp at the solution: the continuation's last step ends at p
     # = x exactly, its Newton's last system (cur's Fu, Fp; the frame and the
@@ -434,7 +448,6 @@ def run_tasks(w, nw, I, VF, LF, SF, BF, GF, UH, PX, N, want, flags, codes, part,
         return
     scratch, _, vals, cbuf = _carve(buf[w], n)
     ws = _workspace(hdr[H_DOF], n, hdr[H_NVAR], hdr[H_NU], hdr[H_NEQ])
-    wt = ws[5][0]
     per_design = PX.shape[0] > 1
     for t in range(w, ntask, nw):
         d = t // nch
@@ -442,7 +455,7 @@ def run_tasks(w, nw, I, VF, LF, SF, BF, GF, UH, PX, N, want, flags, codes, part,
         lo = c * CHUNK
         n_pts = min(lo + CHUNK, N) - lo
         PXd = PX[d] if per_design else PX[0]
-        _weights(hdr, I[1], I[2], I[4], GF[d], wt)
+        _design(I, VF[d], LF[d], GF[d], UH[d], ws)
         for b in range(0, n_pts, BLK):
             m = min(BLK, n_pts - b)
             _chain_block(I, VF[d], LF[d], SF[d], BF[d], GF[d], UH[d], PXd, lo + b, m, want, flags, scratch,
@@ -484,14 +497,15 @@ def continuation_stack(I, VF, LF, GF, UH, P1):
     K = P1.shape[0]
     dof, n, nvar, nu, neq = hdr[H_DOF], hdr[H_N], hdr[H_NVAR], hdr[H_NU], hdr[H_NEQ]
     ws = _workspace(dof, n, nvar, nu, neq)
-    wk, cur, new, la, vec, mats = ws
+    wk, cur, new, la, vec, mats, home = ws
     out = np.full((K, nu), np.nan)
     ok = np.zeros(K, dtype=np.bool_)
     args0 = (hdr[H_PTYPE], I[1], I[2], I[3], I[4])
     for k in range(K):
-        _weights(hdr, I[1], I[2], I[4], GF[k], mats[0])
+        _design(I, VF[k], LF[k], GF[k], UH[k], ws)
         args = args0 + (VF[k], LF[k], GF[k], dof, n, nvar, nu, neq, wk)
-        ok[k] = _continuation(P1[k], UH[k], GF[k, F_P0:F_P0 + n], mats[0], args, cur, new, la, vec, mats[1])
+        ok[k] = _continuation(P1[k], UH[k], GF[k, F_P0:F_P0 + n], home[1:], mats[0], args, cur, new, la, vec,
+                              mats[1])
         if ok[k]:
             for c in range(nu):
                 out[k, c] = cur[0][c]
