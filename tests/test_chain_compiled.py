@@ -277,3 +277,18 @@ def test_points_left_to_the_numpy_path_get_its_values(monkeypatch):
         a, b = vals[r.name].ravel(), ref[i]
         assert np.allclose(a, b, rtol=1e-10, atol=0, equal_nan=True), r.name
         assert np.array_equal(a[::3], b[::3], equal_nan=True), r.name
+
+
+def test_one_compiled_code_serves_every_chain_shape():
+    """The kernel reads the shape from its arrays: mechanisms of different
+    shapes (pose types, joints, sizes, a coordinate map, shorthand legs) run
+    on one compiled signature, so a new chain shape does not compile again."""
+    from optdesign.engine.chain import CHAIN_KERNELS
+
+    CK = CHAIN_KERNELS.require()
+    for name, opt in (CONFIGS[0], CONFIGS[2], CONFIGS[4], CONFIGS[5]):
+        cfg, designs, ws = _case(name, opt, 2, 20, 1)
+        mech = _mech(cfg, designs)
+        assert mech.global_statistics(index_requests(cfg), ws.X) is not None
+        assert mech.local_values_at(index_requests(cfg), ws.X.reshape(2, 10, -1)) is not None
+    assert len(CK.run_tasks.signatures) == 1
