@@ -1,8 +1,11 @@
-"""Points per second of evaluate() on chain mechanisms (numpy path) against a hand-written numpy path.
+"""Points per second of evaluate() on chain mechanisms, their numpy path and the engine's chain kernel, against a hand-written numpy path.
 
 The UPS+UPR+S as data (configs/ups_upr_s_legs.yaml) and its module
 (configs/ups_upr_s.yaml with ``model: rigid``) on the same designs and poses,
-their ratio, and the 3-PRS (configs/prs3.yaml) beside them.
+their ratio, and the 3-PRS (configs/prs3.yaml) beside them; each chain case
+twice: on its numpy path (``OPTDESIGN_CHAIN_ENGINE=0``) and on the compiled
+one (the chain kernel, optdesign/engine/chain_kernels.py), with the ratio of
+their times.
 
     python benchmarks/bench_chains.py [--designs 16] [--points 512] [--repeat 5] [--square 0.5]
 
@@ -13,7 +16,8 @@ and evaluates every case on them in turn (interleaved), so a memory of earlier
 parameter sets does not help; the best wall and CPU (process) times of the
 repeats count.  A first call of each case is not timed.  The machine is
 shared: the load is printed before and after.  The UPS+UPR+S's two paths
-must give the same means (their largest relative difference is printed).
+must give the same means (their largest relative difference is printed),
+and so must each chain case's two paths.
 """
 from __future__ import annotations
 
@@ -65,6 +69,7 @@ def main(argv=None):
     ap.add_argument("--square", type=float, default=0.5, help="the UPS+UPR+S's poses in [-s, s]^2")
     a = ap.parse_args(argv)
     from optdesign.evaluate import evaluate, workspace_of
+    from optdesign.mechanisms.described.chain_compiled import ENV_VAR
     from optdesign.workspace import Workspace
 
     s = a.square
@@ -79,42 +84,71 @@ def main(argv=None):
     wprs = workspace_of(prs)
     plo, phi = wprs.X.min(axis=0), wprs.X.max(axis=0)
     ulo, uhi = np.array([-s, -s]), np.array([s, s])
-    cases = [("UPS+UPR+S module (model: rigid), numpy", hand, "ups"),
-             ("UPS+UPR+S as data (ups_upr_s_legs.yaml)", legs, "ups"),
-             ("3-PRS (prs3.yaml: isotropy, dexterity, stiffness)", prs_kin, "prs"),
-             ("3-PRS (prs3.yaml: the same and dynamic)", prs, "prs")]
+    # (name, config, poses, chain kernel on: None for the hand-written module, which has no chain legs)
+    cases = [("UPS+UPR+S module (model: rigid), numpy", hand, "ups", None),
+             ("UPS+UPR+S as data, numpy path", legs, "ups", False),
+             ("UPS+UPR+S as data, compiled", legs, "ups", True),
+             ("3-PRS (isotropy, dexterity, stiffness), numpy path", prs_kin, "prs", False),
+             ("3-PRS (isotropy, dexterity, stiffness), compiled", prs_kin, "prs", True),
+             ("3-PRS (the same and dynamic), numpy path", prs, "prs", False),
+             ("3-PRS (the same and dynamic), compiled", prs, "prs", True)]
     D, N = a.designs, a.points
     print(f"evaluate() of {D} designs x {N} poses, best of {a.repeat} interleaved repeats, new designs and poses "
-          f"each repeat ({load()})")
+          f"each repeat, {_threads()} kernel threads ({load()})")
     wall, cpu = [np.inf] * len(cases), [np.inf] * len(cases)
     rng = np.random.default_rng(0)
-    worst = 0.0
+    worst = same = 0.0
+    first = None
     reach = {}
     for r in range(a.repeat + 1):
         ups = _draw(rng, ups_box, D, ulo, uhi, N)
         pr = _draw(rng, prs_box, D, plo, phi, N)
         got = {}
-        for i, (name, cfg, kind) in enumerate(cases):
+        for i, (name, cfg, kind, on) in enumerate(cases):
             des, X = ups if kind == "ups" else pr
             ws = Workspace(spec=cfg.workspace, names=cfg.mechanism_class.pose_names, X=X)
+            os.environ[ENV_VAR] = "0" if on is False else "1"
             t, c = time.perf_counter(), time.process_time()
             ev = evaluate(cfg, des, ws, errors=False)
             if r:
                 wall[i] = min(wall[i], time.perf_counter() - t)
                 cpu[i] = min(cpu[i], time.process_time() - c)
+            elif on and first is None:
+                first = time.perf_counter() - t
             got[i] = ev
             reach[i] = float(np.mean(ev.reachable))
-        for k in hand.indices:
-            m0, m1 = got[0].summary[k]["mean"], got[1].summary[k]["mean"]
-            ok = np.isfinite(m0) & np.isfinite(m1)
-            if ok.any():
-                worst = max(worst, float(np.max(np.abs(m1[ok] - m0[ok]) / np.abs(m0[ok]))))
+        worst = max(worst, _worst(got[0], got[1], hand.indices), _worst(got[0], got[2], hand.indices))
+        for i in (2, 4, 6):
+            same = max(same, _worst(got[i - 1], got[i], cases[i][1].indices))
+    os.environ.pop(ENV_VAR, None)
     n = D * N
-    for i, (name, _, _) in enumerate(cases):
-        ratio = "" if i == 0 else f", {wall[i] / wall[0]:6.1f}x the module's time (CPU {cpu[i] / cpu[0]:6.1f}x)"
+    for i, (name, _, kind, on) in enumerate(cases):
+        ratio = f", {wall[i] / wall[0]:6.1f}x the module's time (CPU {cpu[i] / cpu[0]:6.1f}x)" if kind == "ups" and i else ""
+        if on:
+            ratio += f", {wall[i - 1] / wall[i]:5.1f}x faster than its numpy path (CPU {cpu[i - 1] / cpu[i]:5.1f}x)"
         print(f"   {name:52s} {n / wall[i]:9.0f} points/s (CPU {n / cpu[i]:9.0f}), reachable {reach[i]:.3f}{ratio}")
-    print(f"   the UPS+UPR+S's two paths: largest relative difference of the means {worst:.1e}")
+    print(f"   the UPS+UPR+S module against the chain paths: largest relative difference of the means {worst:.1e}")
+    print(f"   each chain case's numpy path against its compiled path: largest relative difference {same:.1e}")
+    print(f"   the chain kernel's first call in this process (its compile, or its load from numba's cache): "
+          f"{first:.1f} s")
     print(f"   ({load()})")
+
+
+def _threads() -> int:
+    from optdesign.engine import workers
+
+    return workers()
+
+
+def _worst(a, b, names) -> float:
+    """The largest relative difference of the means of two evaluations."""
+    out = 0.0
+    for k in names:
+        m0, m1 = a.summary[k]["mean"], b.summary[k]["mean"]
+        ok = np.isfinite(m0) & np.isfinite(m1)
+        if ok.any():
+            out = max(out, float(np.max(np.abs(m1[ok] - m0[ok]) / np.abs(m0[ok]))))
+    return out
 
 
 if __name__ == "__main__":

@@ -243,7 +243,7 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
     """Values and reach codes of design d at the m points of the frame block
     FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
     n = kind.shape[0]
-    dyn_, sv_inv, sv_j, cols, rods, rot = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
+    dyn_, rods, rot = flags[0], flags[4], flags[5]
     Lg, mats, B, T, V, S = scratch
     J = mats[0]
     U = mats[1]
@@ -253,6 +253,23 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
         V[VOK * BLK + j] = 1.0
     legs(L, F, d, ptype, kind, branch, FRb, m, Lg, V, dyn_, rot)
     pose_rows(Lg, GG, ct, FRb, m, J, n)
+    tail_j(J, U, V, T, S, vb, cb, n, m, flags, sel)
+    if dyn_:
+        if rods:
+            pose_rows(Lg, GK, ct, FRb, m, Kp, n)
+        rigid(ptype, F, d, FRb, m, Lg, B, n, rot)
+        dyn_sel(B, Lg, J, Kp, FRb, U, Wm, S, n, ct, rods, m, False, sel)
+        tail_w(Wm, V, T, S, vb, n, m, sel)
+    tail_codes(vb, cb, want, m)
+
+
+@register_jitable(**_JITABLE)
+def tail_j(J, U, V, T, S, vb, cb, n, m, flags, sel):
+    """The engine's tail from the Jacobians J (a block of m points, rows of
+    BLK) of the points whose V row VOK is nonzero: the column norms, J^-1 (or
+    R^-1) into U, cond_F, |det J|, the reach codes into cb (0 where VOK is 0,
+    2 where ill-conditioned) and the singular values the flags ask for."""
+    sv_inv, sv_j, cols = flags[1], flags[2], flags[3]
     if cols:
         for c in range(n):
             for j in range(m):
@@ -286,14 +303,19 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
             lmax_sel(J, V[VLJ * BLK:(VLJ + 1) * BLK], T, V, S, n, m, COLS, NEWTON, sel)
             for j in range(m):
                 vb[TWO * CHUNK + j] = math.sqrt(V[VLJ * BLK + j] * V[VLU * BLK + j])
-    if dyn_:
-        if rods:
-            pose_rows(Lg, GK, ct, FRb, m, Kp, n)
-        rigid(ptype, F, d, FRb, m, Lg, B, n, rot)
-        dyn_sel(B, Lg, J, Kp, FRb, U, Wm, S, n, ct, rods, m, False, sel)
-        lmax_sel(Wm, V[VLW * BLK:(VLW + 1) * BLK], T, V, S, n, m, COLS, NEWTON_DYN, sel)
-        for j in range(m):
-            vb[DYN * CHUNK + j] = math.sqrt(V[VLW * BLK + j])
+
+
+@register_jitable(**_JITABLE)
+def tail_w(Wm, V, T, S, vb, n, m, sel):
+    """The dynamic index sigma_max(W) from W = U^T M_p (rows of BLK)."""
+    lmax_sel(Wm, V[VLW * BLK:(VLW + 1) * BLK], T, V, S, n, m, COLS, NEWTON_DYN, sel)
+    for j in range(m):
+        vb[DYN * CHUNK + j] = math.sqrt(V[VLW * BLK + j])
+
+
+@register_jitable(**_JITABLE)
+def tail_codes(vb, cb, want, m):
+    """A reachable point with a wanted value not finite: left to the numpy path (code 2)."""
     for v in range(NVAL):
         if want[v]:
             for j in range(m):

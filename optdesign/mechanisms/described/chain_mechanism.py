@@ -331,12 +331,22 @@ class ChainMechanism(ChainScrews, ChainDynamics, ChainChecks, DescribedMechanism
         raise NotImplementedError("no interval enclosure of chain legs yet")
 
     def global_statistics(self, requests, X, want_max_cond: bool = False):
-        return None
+        """The chain kernel's statistics (:mod:`.chain_compiled`), or None (the numpy path)."""
+        from .chain_compiled import global_statistics
 
+        return global_statistics(self, requests, X, want_max_cond)
 
     def local_values_at(self, requests, X):
-        return None
+        """The chain kernel's local values (:func:`.chain_compiled.local_values_at`), or None."""
+        from .chain_compiled import local_values_at
 
+        return local_values_at(self, requests, X)
+
+    def local_values(self, requests, X):
+        """The chain kernel's local values of the designs at shared points X (N, dof), or None."""
+        from .chain_compiled import local_values
+
+        return local_values(self, requests, X)
 
     def kernel_source(self, title: str):
         return None

@@ -93,7 +93,7 @@ def description_codes(desc):
     else:
         ct = np.array([_RATE_COLUMN[r] for r in spec.roles], dtype=np.int64)
     if getattr(desc, "is_chain", False):
-        raise ValueError("chain legs: the engine has no packing for them")
+        raise ValueError("chain legs: the chain kernel packs them (chain_compiled.py), not this packing")
     kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
     branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
     return ptype, ct, kind, branch
