@@ -95,6 +95,7 @@ def test_failed_run_is_a_row_not_a_crash(tmp_path, edited_copy):
     assert "Runs not complete" in md and "no feasible design" in md
 
 
+@pytest.mark.slow
 def test_unreadable_checkpoint_fails_that_run_with_a_clear_error(tmp_path):
     (t,) = plan([str(SMALL)], seeds=[5])
     out = tmp_path / "runs"

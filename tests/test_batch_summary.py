@@ -24,6 +24,7 @@ from optdesign.runs import RunFolder
 from conftest import BATCH_SMALL as SMALL
 
 
+@pytest.mark.slow
 def test_summary_statistics_match_the_rows(small_batch, tmp_path):
     tasks, root, rows1 = small_batch
     # an interrupted third run shows up in the table but not in the statistics

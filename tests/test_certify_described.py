@@ -126,7 +126,7 @@ def _sampled_max(cfg, mech, n=16384):
     return float(np.max(cond_2(J))), reg
 
 
-@pytest.mark.parametrize("name, factor", [("delta", 1.5), ("gough_stewart", 10.0)])
+@pytest.mark.parametrize("name, factor", [("delta", 1.5), pytest.param("gough_stewart", 10.0, marks=pytest.mark.slow)])
 def test_certificates_agree_with_dense_samples(name, factor):
     """Certified a little above the sampled maximum (the 6-D W needs far more
     boxes near it, so there the margin is wider), never just below it."""

@@ -242,12 +242,14 @@ def test_run_json_names_the_report_and_the_whole_wall_time(small_run):
     assert res["wall_time_s"] <= res["wall_time_total_s"] <= elapsed
 
 
+@pytest.mark.slow
 def test_run_open_opens_report_html(small_run):
     res, err, opened, _ = small_run
     assert opened == [(Path(res["folder"]) / "report.html").resolve().as_uri()]
     assert "opened" in err and "report.html" in err     # with --json the line goes to stderr
 
 
+@pytest.mark.slow
 def test_nsga3_count_during_the_run_is_the_reported_front(small_run):
     import csv
 

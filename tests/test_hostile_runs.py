@@ -180,6 +180,7 @@ def test_an_intact_copy_resumes_to_the_uninterrupted_result(runs, tmp_path):
         assert (f / rel).read_bytes() == (runs["ref"] / rel).read_bytes(), rel
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("what", ["results.json", "config.yaml"])
 def test_a_changed_complete_folder_is_refused(runs, tmp_path, what):
     f = _copy(runs["ref"], tmp_path / "done")
@@ -248,6 +249,7 @@ def test_planted_code_never_runs(runs, tmp_path):
     assert marker.exists()
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.data())
 def test_any_changed_byte_is_refused_or_changes_nothing(runs, data):

@@ -69,6 +69,7 @@ def test_run_folder_is_complete(finished):
     assert len(rows) == 1 + 8
 
 
+@pytest.mark.slow
 def test_single_point_front_when_indices_agree(finished):
     """Within the paper's bounds the three indices do not conflict: the front
     collapses to (nearly) one design."""
@@ -197,6 +198,7 @@ def test_concurrent_runs_never_share_a_folder(tmp_path):
     assert len(made) == 20
 
 
+@pytest.mark.slow
 def test_corrupted_and_foreign_folders_give_clear_errors(tmp_path, finished):
     with pytest.raises(RunFolderError, match="not a run folder"):
         RunFolder(tmp_path / "nothing").read_manifest()
