@@ -240,7 +240,7 @@ def test_the_spec_and_its_numba_arguments():
 
 def _described_configs(chains: bool = False):
     """The configs with a description (with chain legs or parasitic coordinates:
-    ``chains``; those run on the numpy path only, docs/lower-mobility.md)."""
+    ``chains``; those run on the engine's chain kernel, the same code for every shape)."""
     out = []
     for p in sorted((ROOT / "configs").glob("*.yaml")):
         text = p.read_text()
@@ -255,7 +255,7 @@ def test_kernel_source_refuses_chain_descriptions(path, capsys):
     from cli_helpers import run_main
 
     rc, out, err = run_main(capsys, ["kernel-source", str(path)])
-    assert rc == 2 and out == "" and "chain legs runs on the numpy path only" in err
+    assert rc == 2 and out == "" and "chain legs runs on the engine's chain kernel" in err
 
 
 @pytest.mark.parametrize("path", _described_configs(), ids=lambda p: p.stem)

@@ -50,7 +50,8 @@ def run(args) -> int:
     if src is None:
         if getattr(getattr(mech, "description", None), "is_chain", False):
             raise UsageError(f"{cfg.source}: mechanism: {name} has no generated kernel (a description with chain "
-                             "legs runs on the numpy path only, docs/lower-mobility.md)")
+                             "legs runs on the engine's chain kernel, one code for every chain shape: "
+                             "optdesign/engine/chain_kernels.py, docs/lower-mobility.md)")
         raise UsageError(f"{cfg.source}: mechanism: {name} has no generated kernel (kernel-source applies to "
                          "mechanisms given as a description; this one's compiled path, if any, is hand-written)")
     if args.out is None:
