@@ -32,7 +32,8 @@ DEFAULT_DAMPING = 1.0       # damping ratio of each servo
 
 def model_module(mech):
     """The module building the mechanism's MuJoCo model (``mjcf``, ``state_at``,
-    ``actuated_joints``), or None when it has none."""
+    ``actuated_joints``, optionally ``simulation_mjcf``: the model to step where
+    it differs from the check's), or None when it has none."""
     name = getattr(mech, "multibody_check", None)
     return importlib.import_module(name) if name else None
 
@@ -61,7 +62,7 @@ def export_mjcf(mech, X, *, frequency: float = DEFAULT_FREQUENCY, damping: float
     X = np.asarray(X, float).reshape(-1)
     if not bool(np.all(mech.reachable(X[None]))):
         raise ValueError(f"the keyframe pose {X.tolist()} is not reachable")
-    root = ET.fromstring(mod.mjcf(mech))
+    root = ET.fromstring(getattr(mod, "simulation_mjcf", mod.mjcf)(mech))   # the model meant to be stepped
     if model_name:
         root.set("model", model_name)
     for old in root.findall("actuator") + root.findall("keyframe"):

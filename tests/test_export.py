@@ -131,39 +131,31 @@ def test_export_refuses_a_bad_design_and_unsafe_files(tmp_path, capsys):
     assert mujoco.MjModel.from_xml_path(str(out)).nu == 3
 
 
-def test_chain_servos_bring_the_platform_to_the_pose_with_its_parasitic_motion():
-    """3-PRS (a chain mechanism): the servos, given our inverse kinematics'
-    actuator values of a pose of (z, roll, pitch), bring the platform to
-    that pose and to the parasitic x, y, yaw our kinematics solves."""
+@pytest.mark.parametrize("name, target", [("prs3.yaml", [0.27, 0.04, -0.03]), ("upu3.yaml", [0.02, -0.015, 0.42])])
+def test_chain_servos_bring_the_platform_to_the_pose_and_its_parasitic_motion(name, target):
+    """Chain mechanisms: the servos, given our inverse kinematics' actuator
+    values of a pose of the independent coordinates, bring the platform to
+    that pose and to the parasitic coordinates our kinematics solves (3-PRS:
+    x, y, yaw; 3-UPU: the rotation, zero), with the loops closed."""
     from optdesign.mjcf_export import export_mjcf
 
-    mech = build(load_config(ROOT / "configs" / "prs3.yaml"), "reference")
-    ind = list(mech.pose_spec.independent)
-    home = np.array(mech.pose_spec.home, float)[ind]
-    target = np.array([0.27, 0.04, -0.03])
-    q = mech.inverse(target[None])[0]
-    m, d = _settle(export_mjcf(mech, home), q, 0.8)
-    assert m.nu == 3
-    p, R = _body(m, d, "platform")
-    fr = mech.state(target[None]).core["st"]["frames"]
-    assert np.abs(fr.origin[0][:2]).max() > 1e-5              # there is parasitic motion to match
-    assert np.abs(p - fr.origin[0]).max() < POSE_TOL
-    assert np.abs(R - fr.R[0]).max() < POSE_TOL
-
-
-def test_chain_export_starts_closed_and_steps():
-    """3-UPU: the exported model loads with its loops closed at the keyframe
-    and steps under its servos with gravity."""
-    from optdesign.mjcf_export import export_mjcf
-
-    mech = build(load_config(ROOT / "configs" / "upu3.yaml"), "reference")
+    mech = build(load_config(ROOT / "configs" / name), "reference")
     home = np.array(mech.pose_spec.home, float)[list(mech.pose_spec.independent)]
-    m = mujoco.MjModel.from_xml_string(export_mjcf(mech, home))
+    target = np.array(target)
+    q = mech.inverse(target[None])[0]
+    xml = export_mjcf(mech, home)
+    m = mujoco.MjModel.from_xml_string(xml)                  # the keyframe: loops closed, servos at our IK
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, 0)
     mujoco.mj_forward(m, d)
-    assert m.nu == 3 and np.abs(d.efc_pos[:d.nefc]).max() < 1e-12
-    assert np.allclose(d.ctrl, mech.inverse(home[None])[0], rtol=0, atol=1e-12)   # servo targets: actuator values
-    for _ in range(200):
-        mujoco.mj_step(m, d)
-    assert np.all(np.isfinite(d.qpos)) and np.abs(d.efc_pos[:d.nefc]).max() < 1e-4
+    assert np.abs(d.efc_pos[:d.nefc]).max() < 1e-12
+    np.testing.assert_allclose(d.ctrl, mech.inverse(home[None])[0], rtol=0, atol=1e-12)
+    m, d = _settle(xml, q, 1.5)
+    assert m.nu == 3 and np.abs(d.efc_pos[:d.nefc]).max() < 1e-8
+    p, R = _body(m, d, "platform")
+    fr = mech.state(target[None]).core["st"]["frames"]
+    if name == "prs3.yaml":
+        assert np.abs(fr.origin[0][:2]).max() > 1e-5              # there is parasitic motion to match
+    assert np.abs(p - fr.origin[0]).max() < POSE_TOL
+    assert np.abs(R - fr.R[0]).max() < POSE_TOL
+    assert np.abs(mech.inverse(home[None])[0] - q).max() > 1e-3   # the servos had to move

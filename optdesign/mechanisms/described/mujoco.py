@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mjcf", "DescribedModel", "inverse_dynamics", "energies", "smooth_trajectory", "actuated_joints",
+__all__ = ["mjcf", "simulation_mjcf", "DescribedModel", "inverse_dynamics", "energies", "smooth_trajectory", "actuated_joints",
            "state_at", "mass_matrices"]
 
 AXIAL = 1e-6     # kg m^2: axial inertia of slender bodies (their spin stays zero)
@@ -56,13 +56,14 @@ def _chains(mech) -> bool:
     return bool(getattr(mech.description, "is_chain", False))
 
 
-def mjcf(mech) -> str:
+def mjcf(mech, simulation: bool = False) -> str:
     """The MJCF text of one design of a described mechanism (SI units); a chain
-    mechanism's is :func:`.mujoco_chains.mjcf`."""
+    mechanism's is :func:`.mujoco_chains.mjcf` (``simulation``: its massless
+    bodies get a placeholder mass a simulation can step with)."""
     if _chains(mech):
         from .mujoco_chains import mjcf as chain_mjcf
 
-        return chain_mjcf(mech)
+        return chain_mjcf(mech, simulation)
     C = mech.constants
     if C.shape != ():
         raise ValueError("mjcf expects a single design")
@@ -125,6 +126,12 @@ def mjcf(mech) -> str:
     lines.append('  </equality>')
     lines.append('</mujoco>')
     return "\n".join(lines) + "\n"
+
+
+def simulation_mjcf(mech) -> str:
+    """The MJCF text of the model to step (:func:`optdesign.mjcf_export.export_mjcf`):
+    :func:`mjcf` with a chain mechanism's massless bodies at a placeholder mass."""
+    return mjcf(mech, simulation=True)
 
 
 def actuated_joints(mech) -> list[str]:

@@ -34,6 +34,10 @@ from .chain_constants import PARA, SLIDE
 __all__ = ["mjcf", "ChainModel"]
 
 MIN = 1e-12
+#: the placeholder mass (kg) and inertia (kg m^2) of massless bodies in a model meant to be
+#: simulated (optdesign export): 1e-12 leaves the constraint solver ill-conditioned (a 3-UPU
+#: under its servos drifted, loop residual 1e-2), 1e-6 / 1e-8 settle to 1e-7
+SIM_MASS, SIM_INERTIA = 1e-6, 1e-8
 
 
 def _v(x) -> str:
@@ -56,8 +60,11 @@ def _platform_joints(spec, C) -> list[str]:
             '<joint name="platform_yaw" type="hinge" axis="0 0 1"/>']
 
 
-def mjcf(mech) -> str:
-    """The MJCF text of one design of a chain mechanism (SI units)."""
+def mjcf(mech, simulation: bool = False) -> str:
+    """The MJCF text of one design of a chain mechanism (SI units). Bodies
+    without a mass get MIN for the dynamics check, SIM_MASS / SIM_INERTIA
+    with ``simulation`` (a model to step, :func:`optdesign.mjcf_export.export_mjcf`)."""
+    pm, pi = (SIM_MASS, SIM_INERTIA) if simulation else (MIN, MIN)
     cc = mech.chain_constants
     C = cc.base
     if C.shape != ():
@@ -89,7 +96,7 @@ def mjcf(mech) -> str:
             ind = "    " + "  " * depth
             if code == PARA:
                 L += [f'{ind}<body name="c{i}_{j}s">', f'{ind}  <joint name="c{i}_{j}" type="hinge" axis="{_v(a)}" pos="{_v(c)}"{ref}/>',
-                      f'{ind}  <inertial pos="{_v(c)}" mass="{MIN}" diaginertia="{MIN} {MIN} {MIN}"/>']
+                      f'{ind}  <inertial pos="{_v(c)}" mass="{pm}" diaginertia="{pi} {pi} {pi}"/>']
                 depth += 1
                 ind = "    " + "  " * depth
                 L += [f'{ind}<body name="c{i}_{j}">',
@@ -102,7 +109,7 @@ def mjcf(mech) -> str:
             if m is not None and float(m[0]) > 0:
                 L.append(f'{ind}  <inertial pos="{_v(m[1])}" mass="{float(m[0]):.17g}" fullinertia="{_full(m[2])}"/>')
             else:
-                L.append(f'{ind}  <inertial pos="{_v(c)}" mass="{MIN}" diaginertia="{MIN} {MIN} {MIN}"/>')
+                L.append(f'{ind}  <inertial pos="{_v(c)}" mass="{pm}" diaginertia="{pi} {pi} {pi}"/>')
             depth += 1
         ind = "    " + "  " * depth
         L.append(f'{ind}<site name="end{i}" pos="{_v(leg.end)}" size="0.005"/>')
