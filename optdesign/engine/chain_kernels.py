@@ -40,13 +40,14 @@ from .chain_bodies import _mass, _shorthand
 from .chain_closure import _continuation, _system
 from .chain_dense import _lsq
 from .chain_layout import F_L, F_P0, G_ACT, G_VOFF, H_DOF, H_N, H_NEQ, H_NU, H_NVAR, H_PTYPE
+from .digest import sources_digest
 from .kernels import WORDS, _carve, _chunk_stats, combine, tail_codes, tail_j, tail_w  # noqa: F401 (WORDS, combine)
 from .layout import BLK, CHUNK, NMAX, NVAL, VOK
 
 #: numba's cache of these kernels watches this file only: it records the
 #: digest of the other files compiled into them (kernels.py and its own
 #: sources, the chain modules); tests/test_chain_compiled.py checks it
-CHAIN_DIGEST = "3769e836237dc22a"
+CHAIN_DIGEST = "38cdbe59b9513472"
 
 _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py", "engine/chain_closure.py",
             "engine/chain_bodies.py") + _kernels._SOURCES
@@ -54,14 +55,7 @@ _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.p
 
 def chain_digest() -> str:
     """sha256 (first 16 hex digits) of the files compiled into these kernels besides this one."""
-    import hashlib
-    from pathlib import Path
-
-    h = hashlib.sha256()
-    top = Path(__file__).parents[1]
-    for rel in _SOURCES:
-        h.update((top / rel).read_bytes())
-    return h.hexdigest()[:16]
+    return sources_digest(_SOURCES)
 
 
 if chain_digest() != CHAIN_DIGEST or not _kernels._NJIT.get("cache", True):

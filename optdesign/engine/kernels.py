@@ -60,6 +60,7 @@ from ..fast._jit import chunk_moments
 from ..fast._jit import lambda_max_psd as _lmax3_point
 from . import layout as _layout
 from .codegen import GLOBALS, KernelSpec, routine_source
+from .digest import sources_digest
 from .eigen import COLS, ROWS, bisect_flagged, lmax
 from .inverse import inverse
 from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, HARD_SMALL, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG,
@@ -82,14 +83,7 @@ _SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/ma
 
 def engine_digest() -> str:
     """sha256 (first 16 hex digits) of the files compiled into these kernels besides this one."""
-    import hashlib
-    from pathlib import Path
-
-    h = hashlib.sha256()
-    top = Path(__file__).parents[1]
-    for rel in _SOURCES:
-        h.update((top / rel).read_bytes())
-    return h.hexdigest()[:16]
+    return sources_digest(_SOURCES)
 
 
 if engine_digest() != ENGINE_DIGEST:

@@ -26,7 +26,7 @@ from ...engine import plan
 from ...engine.layout import NMAX
 from ...fast import enabled
 from ...formulas import COL0, DYN, NVAL, SMIN, SMIN2, TWO
-from .fallback import merge, numpy_values
+from .fallback import entries_of, numpy_values, summary_of
 
 __all__ = ["pack", "points", "global_statistics", "local_values", "local_values_at", "ENV_VAR", "active"]
 
@@ -182,11 +182,6 @@ def _prepare(mech, requests, extra=()):
     return pl, want, _flags(want), packed
 
 
-def _entries(requests, pl):
-    byname = {r.name: r for r in requests}
-    return [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
-
-
 def global_statistics(mech, requests, X, want_max_cond: bool = False):
     """The seam ``global_statistics`` (see :func:`.compiled.global_statistics`) on the chain kernel, or None."""
     from ...engine.chain import run_chain
@@ -205,27 +200,8 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     res = run_chain(ints, *arrays, PX, want, flags)
     if res is None:
         return None
-    stats, counts, cd = res
-    names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
-    scales = [(v, fac) for _, v, fac in pl] + ([(TWO, 1.0)] if want_max_cond else [])
-    st = np.stack([stats[:, v, :] * np.array([fac, fac, fac, fac * fac]) for v, fac in scales], axis=1)
-    dd, jj = np.nonzero(cd == 2)
-    if len(dd):
-        entries = _entries(requests, pl) + ([("isotropy", "two_norm", {})] if want_max_cond else [])
-        extra = numpy_values(mech, X, dd, jj, entries)
-        st, counts = merge(st, counts, extra, dd)
-    ok = counts > 0
-    summary = {}
-    with np.errstate(all="ignore"):
-        for i, name in enumerate(names):
-            mean = np.where(ok, st[:, i, 0] / counts, np.nan)
-            summary[name] = {"mean": mean, "min": np.where(ok, st[:, i, 1], np.nan),
-                             "max": np.where(ok, st[:, i, 2], np.nan),
-                             "std": np.where(ok & np.isfinite(mean), np.sqrt(st[:, i, 3] / counts), np.nan),
-                             "count": counts}
-    if want_max_cond:
-        summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
-    return summary, cd != 0
+    return summary_of(res, requests, pl, want_max_cond,
+                      lambda dd, jj, entries: numpy_values(mech, X, dd, jj, entries))
 
 
 def _point_values(mech, requests, X, per_design: bool):
@@ -258,9 +234,9 @@ def _point_values(mech, requests, X, per_design: bool):
     dd, kk = np.nonzero(cd == 2)
     if len(dd):
         if per_design:
-            extra = numpy_values(mech, X.reshape(D * K, -1), dd, dd * K + kk, _entries(requests, pl))
+            extra = numpy_values(mech, X.reshape(D * K, -1), dd, dd * K + kk, entries_of(requests, pl))
         else:
-            extra = numpy_values(mech, X, dd, kk, _entries(requests, pl))
+            extra = numpy_values(mech, X, dd, kk, entries_of(requests, pl))
         for i, (name, _, _) in enumerate(pl):
             out[name][dd, kk] = extra[i]
     reach = cd != 0

@@ -30,7 +30,7 @@ from ...engine import plan
 from ...fast import enabled
 from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO
 from ..base import IndexRequest
-from .fallback import merge, numpy_values
+from .fallback import entries_of, numpy_values, summary_of
 from .packing import frame_rows, kernel_source, kernel_spec, pack, shape_codes  # noqa: F401 (the packing's names)
 
 __all__ = ["IndexRequest", "global_statistics", "local_values", "local_values_at", "zoom_cond", "reach_codes", "plan",
@@ -93,31 +93,8 @@ def global_statistics(mech, requests, X, want_max_cond: bool = False):
     res = _run_kernel(mech, codes, L, F, X, want)
     if res is None:
         return None
-    stats, counts, cd = res
-    # per request: the kernel's sums scaled by the request's factor (factors are positive)
-    names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
-    scales = [(v, fac) for _, v, fac in pl] + ([(TWO, 1.0)] if want_max_cond else [])
-    st = np.stack([stats[:, v, :] * np.array([fac, fac, fac, fac * fac]) for v, fac in scales], axis=1)
-    dd, jj = np.nonzero(cd == 2)
-    if len(dd):
-        byname = {r.name: r for r in requests}
-        entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
-        if want_max_cond:
-            entries.append(("isotropy", "two_norm", {}))
-        extra = numpy_values(mech, X, dd, jj, entries, KM, (codes, L, F, D))
-        st, counts = merge(st, counts, extra, dd)
-    ok = counts > 0
-    summary = {}
-    with np.errstate(all="ignore"):
-        for i, name in enumerate(names):
-            mean = np.where(ok, st[:, i, 0] / counts, np.nan)
-            summary[name] = {"mean": mean, "min": np.where(ok, st[:, i, 1], np.nan),
-                             "max": np.where(ok, st[:, i, 2], np.nan),
-                             "std": np.where(ok & np.isfinite(mean), np.sqrt(st[:, i, 3] / counts), np.nan),
-                             "count": counts}
-    if want_max_cond:
-        summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
-    return summary, cd != 0
+    return summary_of(res, requests, pl, want_max_cond,
+                      lambda dd, jj, entries: numpy_values(mech, X, dd, jj, entries, KM, (codes, L, F, D)))
 
 
 def _flags(want, codes):
@@ -199,8 +176,7 @@ def _point_values(mech, requests, X, per_design: bool):
         out[name] = keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()
     dd, kk = np.nonzero(cd == 2)
     if len(dd):
-        byname = {r.name: r for r in requests}
-        entries = [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
+        entries = entries_of(requests, pl)
         if per_design:
             extra = numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, KM, (codes, L, F, D))
         else:

@@ -7,10 +7,10 @@ import numpy as np
 
 from ...engine import layout as K
 from ...fast.merge import add_points
-from ...formulas import Operands, select, singular_values
+from ...formulas import TWO, Operands, select, singular_values
 from .packing import frame_rows
 
-__all__ = ["numpy_values", "merge"]
+__all__ = ["entries_of", "merge", "numpy_values", "summary_of"]
 
 def _local_numpy(kind, conv, opts, J, svJ, svM):
     """The numpy path's local value of one index (its row of the table
@@ -127,3 +127,39 @@ def merge(stats, counts, extra, dd):
     for v in range(extra.shape[0]):
         stats[:, v, :] = add_points(stats[:, v, :].T, counts, extra[v], dd).T
     return stats, counts + np.bincount(dd, minlength=counts.shape[0])
+
+
+def entries_of(requests, pl) -> list:
+    """(kind, convention, options) of each request of the plan ``pl``, as :func:`numpy_values` takes them."""
+    byname = {r.name: r for r in requests}
+    return [(byname[nm].kind, byname[nm].convention, dict(byname[nm].options or ())) for nm, _, _ in pl]
+
+
+def summary_of(res, requests, pl, want_max_cond: bool, extra_values):
+    """The seam ``global_statistics``'s answer from a kernel's result ``res``
+    = (stats (D, NVAL, 4), counts (D,), codes (D, N)): per request of the plan
+    ``pl`` its sums scaled by the request's factor (factors are positive), the
+    points the kernel left to the numpy path (code 2) evaluated by
+    ``extra_values(dd, jj, entries)`` and merged in; ``(summary, reachable)``."""
+    stats, counts, cd = res
+    names = [name for name, _, _ in pl] + (["_max_cond_2"] if want_max_cond else [])
+    scales = [(v, fac) for _, v, fac in pl] + ([(TWO, 1.0)] if want_max_cond else [])
+    st = np.stack([stats[:, v, :] * np.array([fac, fac, fac, fac * fac]) for v, fac in scales], axis=1)
+    dd, jj = np.nonzero(cd == 2)
+    if len(dd):
+        entries = entries_of(requests, pl)
+        if want_max_cond:
+            entries.append(("isotropy", "two_norm", {}))
+        st, counts = merge(st, counts, extra_values(dd, jj, entries), dd)
+    ok = counts > 0
+    summary = {}
+    with np.errstate(all="ignore"):
+        for i, name in enumerate(names):
+            mean = np.where(ok, st[:, i, 0] / counts, np.nan)
+            summary[name] = {"mean": mean, "min": np.where(ok, st[:, i, 1], np.nan),
+                             "max": np.where(ok, st[:, i, 2], np.nan),
+                             "std": np.where(ok & np.isfinite(mean), np.sqrt(st[:, i, 3] / counts), np.nan),
+                             "count": counts}
+    if want_max_cond:
+        summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
+    return summary, cd != 0
