@@ -26,7 +26,7 @@ from ...engine import plan
 from ...engine.layout import NMAX
 from ...fast import enabled
 from ...formulas import COL0, DYN, NVAL, SMIN, SMIN2, TWO
-from .fallback import entries_of, numpy_values, summary_of
+from .fallback import numpy_values, point_values_of, summary_of
 
 __all__ = ["pack", "points", "global_statistics", "local_values", "local_values_at", "ENV_VAR", "active"]
 
@@ -229,20 +229,8 @@ def _point_values(mech, requests, X, per_design: bool):
     res = run_chain(ints, *arrays, PX, want, flags, keep, stats=False)
     if res is None:
         return None
-    cd = res[2]
-    out = {name: (keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()) for name, v, fac in pl}
-    dd, kk = np.nonzero(cd == 2)
-    if len(dd):
-        if per_design:
-            extra = numpy_values(mech, X.reshape(D * K, -1), dd, dd * K + kk, entries_of(requests, pl))
-        else:
-            extra = numpy_values(mech, X, dd, kk, entries_of(requests, pl))
-        for i, (name, _, _) in enumerate(pl):
-            out[name][dd, kk] = extra[i]
-    reach = cd != 0
-    for x in out.values():
-        x[~reach] = np.nan
-    return out, reach
+    return point_values_of(keep, res[2], requests, pl, X, per_design,
+                           lambda Xp, dd, jj, entries: numpy_values(mech, Xp, dd, jj, entries))
 
 
 def local_values_at(mech, requests, X):

@@ -30,7 +30,7 @@ from ...engine import plan
 from ...fast import enabled
 from ...formulas import COL0, DYN, FRO, NVAL, SMIN, SMIN2, TWO
 from ..base import IndexRequest
-from .fallback import entries_of, numpy_values, summary_of
+from .fallback import numpy_values, point_values_of, summary_of
 from .packing import frame_rows, kernel_source, kernel_spec, pack, shape_codes  # noqa: F401 (the packing's names)
 
 __all__ = ["IndexRequest", "global_statistics", "local_values", "local_values_at", "zoom_cond", "reach_codes", "plan",
@@ -170,23 +170,8 @@ def _point_values(mech, requests, X, per_design: bool):
                      spec=engine.tier(kernel_spec(codes)), stats=False)
     if res is None:
         return None
-    cd = res[2]
-    out = {}
-    for name, v, fac in pl:
-        out[name] = keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()
-    dd, kk = np.nonzero(cd == 2)
-    if len(dd):
-        entries = entries_of(requests, pl)
-        if per_design:
-            extra = numpy_values(mech, X.reshape(D * n_pts, -1), dd, dd * n_pts + kk, entries, KM, (codes, L, F, D))
-        else:
-            extra = numpy_values(mech, X, dd, kk, entries, KM, (codes, L, F, D))
-        for i, (name, _, _) in enumerate(pl):
-            out[name][dd, kk] = extra[i]
-    reach = cd != 0
-    for x in out.values():
-        x[~reach] = np.nan
-    return out, reach
+    return point_values_of(keep, res[2], requests, pl, X, per_design,
+                           lambda Xp, dd, jj, entries: numpy_values(mech, Xp, dd, jj, entries, KM, (codes, L, F, D)))
 
 
 def local_values_at(mech, requests, X):

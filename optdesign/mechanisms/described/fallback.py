@@ -10,7 +10,7 @@ from ...fast.merge import add_points
 from ...formulas import TWO, Operands, select, singular_values
 from .packing import frame_rows
 
-__all__ = ["entries_of", "merge", "numpy_values", "summary_of"]
+__all__ = ["entries_of", "merge", "numpy_values", "point_values_of", "summary_of"]
 
 def _local_numpy(kind, conv, opts, J, svJ, svM):
     """The numpy path's local value of one index (its row of the table
@@ -163,3 +163,27 @@ def summary_of(res, requests, pl, want_max_cond: bool, extra_values):
     if want_max_cond:
         summary["_max_cond_2"] = summary["_max_cond_2"]["max"]
     return summary, cd != 0
+
+
+def point_values_of(keep, codes, requests, pl, X, per_design: bool, extra_values):
+    """The seams ``local_values`` / ``local_values_at`` from a kernel's kept
+    values ``keep`` (D, NVAL, K) and reach codes (D, K): per request of the plan
+    ``pl`` its row scaled by its factor, the points left to the numpy path
+    (code 2) from ``extra_values(X, dd, jj, entries)`` (X flattened to (D K,
+    dof) when each design has its own points), NaN where not reachable;
+    ``(values {name: (D, K)}, reachable (D, K))``."""
+    D, _, K = keep.shape
+    out = {name: (keep[:, v, :] * fac if fac != 1.0 else keep[:, v, :].copy()) for name, v, fac in pl}
+    dd, kk = np.nonzero(codes == 2)
+    if len(dd):
+        entries = entries_of(requests, pl)
+        if per_design:
+            extra = extra_values(X.reshape(D * K, -1), dd, dd * K + kk, entries)
+        else:
+            extra = extra_values(X, dd, kk, entries)
+        for i, (name, _, _) in enumerate(pl):
+            out[name][dd, kk] = extra[i]
+    reach = codes != 0
+    for x in out.values():
+        x[~reach] = np.nan
+    return out, reach
