@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from .chain_constants import chain_constants
-from .checks import _rank, _trees, _why, leg_geometry
+from .checks import _rank, _trees, _why, leg_geometry, ranks_around
 from .expr import first_problem
 
 __all__ = ["check_designs", "mobility_problem"]
@@ -213,17 +213,13 @@ def _parametrization(mech, dname):
 def _actuation(mech, dname):
     spec = mech.pose_spec
     home = np.asarray(mech.home_coordinates(), dtype=float).reshape(1, -1)
-    J = mech.jacobian(home).reshape(-1, *mech.jacobian(home).shape[-2:])[0]
+    J = mech.jacobian(home)
+    J = J.reshape(-1, *J.shape[-2:])[0]
     n = J.shape[-1]
     if _rank(J) == n:
         return None
-    rng = np.random.default_rng(12345)
     roles = [spec.roles[i] for i in spec.independent_index] if spec.cmap is None else ["x"] * n
-    span = np.array([0.01 if r in ("x", "y", "z") else 0.02 for r in roles])
-    X = home + span * rng.uniform(-1, 1, (8, len(span)))
-    with np.errstate(all="ignore"):
-        Js = mech.jacobian(X).reshape(-1, 8, n, n)[0]
-    ranks = [_rank(Jk) for Jk, ok in zip(Js, np.all(np.isfinite(Js), axis=(-1, -2))) if ok]
+    ranks = ranks_around(mech, home, roles)
     if not ranks or max(ranks) < n:
         return "mechanism.legs", (f"the Jacobian dq/dx is singular at the home pose and at every pose tried around it "
                                   f"(rank {max(ranks) if ranks else _rank(J)} of {n}, design {dname!r}): the actuated "

@@ -218,18 +218,9 @@ class ChainDynamics:
         return self._dyn(X)["M"]
 
     def _forces(self, X, V, A=None, parts=("M", "c", "g")):
-        from .mechanism import _solve_T
+        from .dynamics import actuator_forces_of
 
-        d = self._dyn(X, V)
-        F = 0.0
-        if "M" in parts:
-            F = F + np.einsum("...ij,...j->...i", d["M"], np.asarray(A, dtype=float))
-        if "c" in parts:
-            F = F + d["c"]
-        if "g" in parts:
-            F = F + d["g"]
-        F = np.broadcast_to(F, d["J"].shape[:-2] + (self.dof,))
-        return _solve_T(d["J"], F[..., None])[..., 0]
+        return actuator_forces_of(self._dyn(X, V), A, parts, self.dof)
 
     def gravity_term(self, X):
         X = np.asarray(X, dtype=float)

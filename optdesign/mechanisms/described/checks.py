@@ -131,17 +131,26 @@ def _closes_and_moves(mech, desc, dname):
     J = mech.jacobian(home)[0]
     n = J.shape[-1]
     if _rank(J) < n:
-        rng = np.random.default_rng(12345)
-        span = np.array([0.01 if r in ("x", "y", "z") else 0.02 for r in desc.pose.roles])
-        X = home + span * rng.uniform(-1, 1, (8, len(span)))
-        with np.errstate(all="ignore"):
-            Js = mech.jacobian(X)
-        ranks = [_rank(Jk) for Jk, ok in zip(Js, np.all(np.isfinite(Js), axis=(-1, -2))) if ok]
+        ranks = ranks_around(mech, home, desc.pose.roles)
         if not ranks or max(ranks) < n:
             return "mechanism.legs", (f"the Jacobian is singular at the home pose and at every pose tried around it "
                                       f"(rank {max(ranks) if ranks else _rank(J)} of {n}, design {dname!r}): the legs "
                                       "cannot control every pose coordinate")
     return None
+
+
+def ranks_around(mech, home, roles) -> list[int]:
+    """The ranks of the Jacobian at 8 poses drawn (seed 12345) around the home
+    pose (1, k) within 0.01 of a length coordinate and 0.02 of an angle (the
+    coordinates' ``roles``), where it is finite: a singular home pose may be a
+    special one, the rank near it says whether the legs control the motion."""
+    rng = np.random.default_rng(12345)
+    span = np.array([0.01 if r in ("x", "y", "z") else 0.02 for r in roles])
+    X = home + span * rng.uniform(-1, 1, (8, len(span)))
+    with np.errstate(all="ignore"):
+        Js = mech.jacobian(X)
+    Js = Js.reshape((-1,) + Js.shape[-3:])[0]
+    return [_rank(Jk) for Jk, ok in zip(Js, np.all(np.isfinite(Js), axis=(-1, -2))) if ok]
 
 
 def _leg_closes(mech, X):

@@ -35,7 +35,7 @@ import numpy as np
 
 from .constants import Constants
 
-__all__ = ["twist_dynamics", "potential_energy", "point_map", "skew"]
+__all__ = ["twist_dynamics", "potential_energy", "point_map", "skew", "actuator_forces_of"]
 
 
 def skew(n: np.ndarray) -> np.ndarray:
@@ -185,3 +185,17 @@ def _solve_T(J: np.ndarray, B: np.ndarray) -> np.ndarray:
     Js = np.where(good[..., None, None], Js, np.eye(n))
     out = np.linalg.solve(Js, Bs)
     return np.where(good[..., None, None], out, np.nan)
+
+
+def actuator_forces_of(d: dict, A, parts, dof: int) -> np.ndarray:
+    """Actuator forces J^-T (M a + c + g) from a pose's dynamics ``d`` (``J``,
+    ``M``, ``c``, ``g``), with the terms ``parts`` names (accelerations A)."""
+    F = 0.0
+    if "M" in parts:
+        F = F + np.einsum("...ij,...j->...i", d["M"], np.asarray(A, dtype=float))
+    if "c" in parts:
+        F = F + d["c"]
+    if "g" in parts:
+        F = F + d["g"]
+    F = np.broadcast_to(F, d["J"].shape[:-2] + (dof,))
+    return _solve_T(d["J"], F[..., None])[..., 0]

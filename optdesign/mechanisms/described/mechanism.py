@@ -27,7 +27,7 @@ from ..base import Mechanism
 from ..params import Param
 from . import kinematics as _kin
 from .constants import Constants, constants
-from .dynamics import _solve_T, potential_energy, twist_dynamics
+from .dynamics import _solve_T, actuator_forces_of, potential_energy, twist_dynamics
 from .legs import leg_state
 from .memo import CONSTANTS, params_key
 from .poses import rate_bias, rate_map, twist_columns
@@ -213,17 +213,7 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
     def _forces(self, X, V, A=None, parts=("M", "c", "g")):
         self._require_dynamics()
-        st = self.leg_state(X)
-        d = self._pose_dyn(st, V, "rates")
-        F = 0.0
-        if "M" in parts:
-            F = F + np.einsum("...ij,...j->...i", d["M"], np.asarray(A, dtype=float))
-        if "c" in parts:
-            F = F + d["c"]
-        if "g" in parts:
-            F = F + d["g"]
-        F = np.broadcast_to(F, d["J"].shape[:-2] + (self.dof,))
-        return _solve_T(d["J"], F[..., None])[..., 0]
+        return actuator_forces_of(self._pose_dyn(self.leg_state(X), V, "rates"), A, parts, self.dof)
 
     def actuator_forces(self, X: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
         """Actuator forces/torques (..., N, n_act) for poses X, pose-coordinate rates
