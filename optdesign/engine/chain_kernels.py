@@ -47,7 +47,7 @@ from .layout import BLK, CHUNK, NMAX, NVAL, VOK
 #: numba's cache of these kernels watches this file only: it records the
 #: digest of the other files compiled into them (kernels.py and its own
 #: sources, the chain modules); tests/test_chain_compiled.py checks it
-CHAIN_DIGEST = "38cdbe59b9513472"
+CHAIN_DIGEST = "6357d6d0b9b94010"
 
 _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py", "engine/chain_closure.py",
             "engine/chain_bodies.py") + _kernels._SOURCES
@@ -198,7 +198,7 @@ def _w_of(U, Mb, Wm, n, m):
                 Wm[ow + j] = s
 
 
-@register_jitable(**_JITABLE)
+@njit(inline="always", **_JITABLE)
 def _chain_block(I, VFd, LFd, SFd, BFd, GFd, uh, PXd, lo, m, want, flags, scratch, vb, cb, ws):
     """Values and reach codes of one design at the m points lo.. of PXd: value
     v of point j into vb[v CHUNK + j], its code into cb[j] (as kernels._block)."""

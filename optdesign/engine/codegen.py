@@ -360,7 +360,7 @@ def module_source(spec: KernelSpec, title: str) -> str:
             f"# (n = {spec.n}; pose-column kinds: 0..5 twist components vx vy vz wx wy wz, 6 and 7 roll's",
             "# and pitch's Euler columns; rods: a leg has a rod; rot: the pose has angles).",
             "# Each function is what numba compiles for the stub of the same name in",
-            "# optdesign/mechanisms/described/_kernels.py (there named impl), as written by _codegen.py;",
+            "# optdesign/engine/kernels.py (there named impl), as written by optdesign/engine/codegen.py;",
             "# matrices are rows of BLK points: entry (r, c) of point j at [(r n + c) BLK + j].",
             f"# Routines: {', '.join(rs)}{hand}.",
             "import math", "", "from numba import uint64 as _u", "",

@@ -267,12 +267,13 @@ def _lmax_big(X, out, T, V, S, n, m, mode, iters):
     bisect_flagged(T, out, V, n, m)
 
 
-@register_jitable(**_JITABLE)
-def lmax(X, out, T, V, S, n, m, mode, iters):
+def lmax(X, out, T, V, S, n, m, mode, iters, sel):
     """out[j] = lambda_max of the Gram matrix of X's n x n matrix at point j
     (mode COLS: X^T X; ROWS: X X^T for X from :func:`inverse`, upper
     triangular for n >= 4, whose lower triangle is not read):
-    closed forms for n <= 3, :func:`_lmax_big` beyond (iters Newton steps)."""
+    closed forms for n <= 3, :func:`_lmax_big` beyond (iters Newton steps).
+    sel: the kernel's selector, not read; this function is the overload of
+    ``kernels.lmax_sel`` for the generic tier, compiled as it is."""
     if n >= 4:
         _lmax_big(X, out, T, V, S, n, m, UROWS if mode == ROWS else mode, iters)
         return

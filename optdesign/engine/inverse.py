@@ -191,11 +191,11 @@ def _qr_inverse(A, U, V, S, n, m):
         V[_u(VI2 * BLK + j)] = S[_u(j)]
 
 
-@register_jitable(**_JITABLE)
-def inverse(A, U, V, S, n, m):
+def inverse(A, U, V, S, n, m, sel):
     """U = A^-1 (n <= 3) or R^-1 of A = QR (n >= 4: upper triangular, with the
     singular values of A^-1; Q is never formed); V rows VDET <- |det A|,
-    VI2 <- ||A^-1||_F^2."""
+    VI2 <- ||A^-1||_F^2.  sel: the kernel's selector, not read; this function
+    is the overload of ``kernels.inverse_sel`` for the generic tier."""
     if n <= 3:
         _inverse_small(A, U, V, n, m)
     else:

@@ -75,7 +75,7 @@ from .mass import dyn
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "f74da7cc5100c15d"
+ENGINE_DIGEST = "bc3e66528af2f22b"
 
 _SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py", "engine/layout.py",
             "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py")
@@ -106,7 +106,9 @@ _JITABLE_RED = {**_JITABLE, "fastmath": {"reassoc", "nsz"}}
 # n >= 4, compiled once per shape).  The kernels take a selector ``sel``:
 # None for the generic routines, or ``KernelSpec.numba_args()`` (a tuple of n
 # zeros and a record array whose field names say the spec), whose *types*
-# numba specializes on; each @overload below picks the routine from them.
+# numba specializes on; each @overload below picks the routine from them (the
+# generic routine itself, which takes sel and ignores it: a wrapper around it
+# would be one more library for numba to optimize and generate).
 def _bisect_nt(T, out, V, nt, m):
     bisect_flagged(T, out, V, len(nt), m)
 
@@ -139,7 +141,7 @@ def inverse_sel(A, U, V, S, n, m, sel):
 def _ov_inverse_sel(A, U, V, S, n, m, sel):
     sp = _sel_spec(sel)
     if sp is None or sp[0] <= 3:
-        return lambda A, U, V, S, n, m, sel: inverse(A, U, V, S, n, m)
+        return inverse
     gen = _generated("_inverse", sp[0])
     return lambda A, U, V, S, n, m, sel: gen(A, U, V, sel[0], m)
 
@@ -153,7 +155,7 @@ def lmax_sel(X, out, T, V, S, n, m, mode, iters, sel):
 def _ov_lmax_sel(X, out, T, V, S, n, m, mode, iters, sel):
     sp = _sel_spec(sel)
     if sp is None:
-        return lambda X, out, T, V, S, n, m, mode, iters, sel: lmax(X, out, T, V, S, n, m, mode, iters)
+        return lmax
     rows = _generated("_lmax_rows", sp[0])
     cols = _generated("_lmax_cols", sp[0])
     # the same code when NEWTON_DYN == NEWTON: compiled once
@@ -178,8 +180,7 @@ def dyn_sel(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
 def _ov_dyn_sel(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
     sp = _sel_spec(sel)
     if sp is None:
-        return (lambda B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel:
-                dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only))
+        return dyn
     w = _generated("_dyn_w", sp[0], sp[1])
     mp = _generated("_mass_p", sp[0], sp[1])
 
@@ -232,7 +233,7 @@ def _alloc(n):
     return _carve(np.zeros(WORDS), n)
 
 
-@njit(**_NJIT)
+@njit(inline="always", **_JITABLE)
 def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, cb, sel):
     """Values and reach codes of design d at the m points of the frame block
     FRb: value v of point j into vb[v CHUNK + j], its code (as a float) into cb[j]."""
@@ -257,7 +258,7 @@ def _block(ptype, ct, kind, branch, L, F, d, FRb, m, want, flags, scratch, vb, c
     tail_codes(vb, cb, want, m)
 
 
-@register_jitable(**_JITABLE)
+@njit(inline="always", **_JITABLE)
 def tail_j(J, U, V, T, S, vb, cb, n, m, flags, sel):
     """The engine's tail from the Jacobians J (a block of m points, rows of
     BLK) of the points whose V row VOK is nonzero: the column norms, J^-1 (or
@@ -299,7 +300,7 @@ def tail_j(J, U, V, T, S, vb, cb, n, m, flags, sel):
                 vb[TWO * CHUNK + j] = math.sqrt(V[VLJ * BLK + j] * V[VLU * BLK + j])
 
 
-@register_jitable(**_JITABLE)
+@njit(inline="always", **_JITABLE)
 def tail_w(Wm, V, T, S, vb, n, m, sel):
     """The dynamic index sigma_max(W) from W = U^T M_p (rows of BLK)."""
     lmax_sel(Wm, V[VLW * BLK:(VLW + 1) * BLK], T, V, S, n, m, COLS, NEWTON_DYN, sel)
@@ -307,7 +308,7 @@ def tail_w(Wm, V, T, S, vb, n, m, sel):
         vb[DYN * CHUNK + j] = math.sqrt(V[VLW * BLK + j])
 
 
-@register_jitable(**_JITABLE)
+@njit(inline="always", **_JITABLE)
 def tail_codes(vb, cb, want, m):
     """A reachable point with a wanted value not finite: left to the numpy path (code 2)."""
     for v in range(NVAL):

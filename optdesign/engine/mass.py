@@ -97,8 +97,7 @@ def _dyn_small(Lg, J, Kp, U, W, S, n, rods, m, om, oq, ov):
                 W[_u(ow + j)] = t
 
 
-@register_jitable(**_JITABLE)
-def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
+def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
     """W = U^T M_p (U from :func:`inverse`; upper triangular for n >= 4), or
     M_p itself (mass_only), without M_p stored: M_p = S^T B S + sum_i [gamma_i
     J_i^T J_i + delta_i (J_i^T K_i + K_i^T J_i)] as s_a.(B s_b) + sum_i (J_ia
@@ -106,7 +105,9 @@ def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only):
     the pose columns s of the kinds ct (a twist component or an Euler column,
     whose entries are in the frame data's FRE rows); for n <= 3 the legs'
     terms of W without M_p (:func:`_dyn_small`).  S rows: (B s_b)_k at (b 6 +
-    k), then M_p (n n), then P, D, U^T K^T (n n each)."""
+    k), then M_p (n n), then P, D, U^T K^T (n n each).  sel: the kernel's
+    selector, not read; this function is the overload of ``kernels.dyn_sel``
+    for the generic tier."""
     comp = np.zeros(6, dtype=np.bool_)
     for c in range(n):
         kc = ct[c]

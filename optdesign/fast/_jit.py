@@ -19,8 +19,16 @@ from numba.extending import intrinsic
 #: no fast-math: the kernels' results must not depend on the compiler's choices
 NJIT = dict(cache=True, error_model="numpy", fastmath=False)
 #: the same for the routines compiled into the kernels that call them
-#: (``numba.extending.register_jitable``: no machine code of their own, so
-#: they cost one compilation, in their caller, not two)
+#: (``numba.extending.register_jitable``, or ``njit(inline="always", ...)``).
+#: numba compiles a register_jitable routine once per signature into a library
+#: of its own, optimized and turned into machine code, and optimizes and
+#: generates it again inside every library that links it: a routine at depth d
+#: of the call tree costs d times.  So the kernels' glue (a block of points, the
+#: tails) is inlined into its caller as untyped IR, with no library of its own,
+#: and the selector overloads return the generic routines themselves, not
+#: wrappers around them.  The large routines stay separate: numba's inlining
+#: deep-copies the callee's IR block by block, which costs more than the LLVM
+#: time it saves on them (measured on the engine's first compile, issue "One engine")
 JITABLE = dict(error_model="numpy", fastmath=False)
 
 
