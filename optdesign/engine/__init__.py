@@ -140,7 +140,8 @@ def run(codes, L, F, FR, N, want, flags, keep=None, spec=None, stats=True):
     sel = None if spec is None else _selector(spec)
     buf, lock = _buffers(K, nw)
     try:
-        return _run(K, nw, (ptype, ct, kind, branch, L, F, FR, N, want, flags, out_codes, part, cnt, keep, sel, buf),
+        return _run(K, nw, (ptype, ct, kind, branch, L, F, _read_only(FR), N, want, flags, out_codes, part, cnt, keep,
+                            sel, buf),
                     sel, stats, part, cnt, want, out_codes)
     finally:
         if lock is not None:
@@ -162,17 +163,31 @@ def zoom(codes, L, F, base, axes, lo, width, disc, u, val, h, live, budget, grid
     bail = np.zeros(M, dtype=np.bool_)
     sel = None if spec is None else _selector(spec)
     ptype, ct, kind, branch = codes
+    uc = np.ascontiguousarray(u)        # one compiled signature: u in C order (and back into u below)
     buf, lock = _buffers(K, 1)
     try:
-        KERNELS.guarded(K.zoom, ptype, ct, kind, branch, L, F, base, axes, lo, width, bool(disc), u, val, h, live,
+        KERNELS.guarded(K.zoom, ptype, ct, kind, branch, L, F, base, axes, lo, width, bool(disc), uc, val, h, live,
                         budget, done, bail, grid, float(stop), float(tol), int(value[0]), float(value[1]), want, flags,
                         sel, buf)
     finally:
         if lock is not None:
             lock.release()
+    if uc is not u:
+        u[...] = uc
     if KERNELS.module is None:
         return None
     return done, bail
+
+
+def _read_only(a):
+    """a as a read-only view: numba compiles a kernel once per argument type,
+    and a read-only array is another type than a writeable one (the frame data
+    come both ways, e.g. from np.broadcast_to): one signature, one compile."""
+    if not a.flags.writeable:
+        return a
+    v = a.view()
+    v.flags.writeable = False
+    return v
 
 
 def _buffers(K, nw):
