@@ -108,3 +108,67 @@ def small_batches(small_batch):
     tasks, root, rows1 = small_batch
     rows2 = run_batch(tasks, str(root / "jobs2"), jobs=2)
     return tasks, root, rows1, rows2
+
+
+# ---------------------------------------------------------------------- the order the workers take the files in
+#: The test files in the order pytest-xdist hands them to its two workers
+#: (``--dist loadfile --no-loadscope-reorder``, pyproject.toml): one file at a
+#: time to a worker with at most two of its tests left.  Longest first, so
+#: that no long file starts last and runs alone while the other worker idles;
+#: except that the first file compiles the engine's kernels (``run_tasks`` and
+#: ``zoom`` in one process, where they share their routines) while the other
+#: worker starts with files that compile none, and finds them in numba's cache
+#: afterwards (with two long files first, both workers compiled the same kernels
+#: side by side, and a process that loaded ``run_tasks`` from the cache then
+#: compiled ``zoom`` with all its routines: 21 s instead of 6 s).
+#: The comments are each file's seconds in ``python -m pytest --durations=0``
+#: from a fresh clone (2 cores, quiet, 2026-12-06); a file not named runs after
+#: these in pytest's own order.  Only the order changes: no test depends on it.
+LONGEST_FIRST = (
+    "test_described_runs.py",   # 44 s: the engine's run_tasks, zoom and the mass blocks, compiled
+    "test_hostile_yaml.py",     # 13 s  \
+    "test_hostile_configs.py",  # 9 s    |
+    "test_hostile_config.py",   # 6 s    |
+    "test_architecture.py",     # 5 s     > no kernel compiled: the other worker's first files
+    "test_hostile_cli.py",      # 4 s    |
+    "test_hostile_names.py",    # 4 s    |
+    "test_config_keys.py",      # 3 s    |
+    "test_kernel_generators.py",  # 2 s /
+    "test_interrupt.py",        # 78 s
+    "test_runs.py",             # 67 s
+    "test_dask.py",             # 35 s
+    "test_report_html.py",      # 35 s
+    "test_chain_compiled.py",   # 34 s
+    "test_presentation.py",     # 31 s
+    "test_polish.py",           # 30 s
+    "test_engine.py",           # 30 s
+    "test_field_trial_output.py",
+    "test_batch_execute.py",
+    "test_determinism.py",
+    "test_config.py",
+    "test_init.py",
+    "test_hostile_signals.py",
+    "test_extremes.py",
+    "test_hostile_geometry.py",
+    "test_normalized_terms.py",
+    "test_workers.py",
+    "test_certify_described.py",
+    "test_python_api_doc.py",
+    "test_wall.py",
+    "test_hostile_runs.py",
+    "test_checkpoint.py",
+    "test_batch_schema.py",
+    "test_progress_file.py",
+    "test_described_compiled.py",
+    "test_batch_summary.py",
+    "test_hostile_limits.py",
+    "test_certify.py",
+    "test_described_ik_json.py",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Sort the items by their file's place in LONGEST_FIRST (a stable sort:
+    the order within a file is pytest's)."""
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))

@@ -78,7 +78,7 @@ def _space_config(name: str, optimizer: str) -> str:
     from conftest import edited_text
 
     return edited_text(SMALL.read_text(), {"name: batch_small": f"name: {name}",
-                                           "optimizer: {worst_case: false, extremes: {starts: 1, scan: 256}, population: 12, generations: 5, seed: 1}":
+                                           "optimizer: {worst_case: false, polish: 1, extremes: {starts: 1, scan: 256}, population: 12, generations: 5, seed: 1}":
                                            f"optimizer: {optimizer}"})
 
 

@@ -40,10 +40,11 @@ design_variables:
   phi: {value: 30, bounds: [25, 35], unit: deg}
 workspace: {type: box, axes: {x: [-0.05, 0.05], y: [-0.05, 0.05], z: 0.57}, sampling: grid, step: 0.05}
 indices: {dynamic: {}, stiffness: {}}
-optimizer: {worst_case: false, extremes: {starts: 1, scan: 256}, population: 8, generations: 4, elites: 2, seed: 3,
+optimizer: {worst_case: false, polish: 1, extremes: {starts: 1, scan: 256}, population: 8, generations: 4, elites: 2, seed: 3,
             checkpoint_interval: 0, pareto: {population: 8, generations: 3}}
 """
-# (kept cheap: what is tested is the signals; tests/test_worstcase.py checks the continuous search)
+# (kept cheap: what is tested is the signals; one polish start per stage; tests/test_polish.py and
+# tests/test_worstcase.py check the polish and the continuous search)
 SEED = 11
 #: generations in the whole run: 4 single-index stages and 2 weighted sums of 4, 2 Pareto runs of 3
 TOTAL_GENERATIONS = 6 * 4 + 2 * 3
