@@ -44,19 +44,12 @@ def _objective_axis(units: Units, term: str) -> str:
 
 
 def plots(units: Units, folder: RunFolder, results: dict, stages: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig = convergence_figure(results["config"], _read_csv(folder.path / "stages" / "weighted_sum" / "history.csv"))
     if fig is not None:
         _save(fig, folder.path / "convergence.png")
-        plt.close(fig)
     fig = pareto_figure(units, results, stages)
     if fig is not None:
         _save(fig, folder.path / "pareto.png")
-        plt.close(fig)
 
 
 def convergence_figure(name: str, hist: list[dict]):
@@ -65,7 +58,6 @@ def convergence_figure(name: str, hist: list[dict]):
     axis shows all but the first generations flat at 0.  Values within
     round-off of 0 are 0, drawn on the linear band of a symlog axis (said in
     the title); None without a history."""
-    import matplotlib.pyplot as plt
     import matplotlib.ticker
 
     if not hist:
@@ -77,7 +69,8 @@ def convergence_figure(name: str, hist: list[dict]):
     vals = vals[np.isfinite(vals)]
     zero = bool(np.any(np.abs(vals) < ROUND_OFF))
     best, mean = (np.where(np.abs(v) < ROUND_OFF, 0.0, v) for v in (best, mean))
-    fig, ax = plt.subplots(figsize=(6.4, 4), layout="constrained")
+    fig = _figure(figsize=(6.4, 4))
+    ax = fig.subplots()
     ax.plot(g, best, label="best", marker="o", ms=3, clip_on=False)
     ax.plot(g, mean, label="population mean", alpha=0.7, marker="o", ms=3, clip_on=False)
     pos = vals[np.abs(vals) >= ROUND_OFF]
@@ -104,7 +97,6 @@ def convergence_figure(name: str, hist: list[dict]):
 def pareto_figure(units: Units, results: dict, stages: dict):
     """The Pareto fronts, each pair of objectives in its own sense (None
     without a front).  Markers are never cut at the frame (clip_on=False)."""
-    import matplotlib.pyplot as plt
     import matplotlib.ticker
 
     fronts = {k: v for k, v in stages.items() if v.get("kind") == "pareto" and v.get("front")}
@@ -115,7 +107,8 @@ def pareto_figure(units: Units, results: dict, stages: dict):
     pairs = [(i, j) for i in range(len(terms)) for j in range(i + 1, len(terms))]
     ncol = min(3, len(pairs))
     nrow = -(-len(pairs) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.8 * ncol, 4.2 * nrow + 0.5), squeeze=False, layout="constrained")
+    fig = _figure(figsize=(4.8 * ncol, 4.2 * nrow + 0.5))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     for ax in axes.flat[len(pairs):]:
         ax.set_visible(False)
     marks = {"weighted_sum_optimum": ("*", "k", "weighted-sum optimum")}
@@ -182,6 +175,14 @@ def pareto_figure(units: Units, results: dict, stages: dict):
         title += f"\n{', '.join(one)}: the front collapsed to ONE design (no trade-off found)"
     fig.suptitle(title, fontsize=10)
     return fig
+
+
+def _figure(figsize):
+    """A figure of its own, not pyplot's (no pyplot to import, nothing to close;
+    savefig draws it with matplotlib's Agg canvas)."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, layout="constrained")
 
 
 def _save(fig, path: Path) -> None:
