@@ -113,7 +113,7 @@ def small_batches(small_batch):
 # ---------------------------------------------------------------------- the order the workers take the files in
 #: The test files in the order pytest-xdist hands them to its two workers
 #: (``--dist loadfile --no-loadscope-reorder``, pyproject.toml): one file at a
-#: time to a worker with at most two of its tests left.  Longest first, so
+#: time, to whichever worker is nearly done with its own.  Longest first, so
 #: that no long file starts last and runs alone while the other worker idles;
 #: except that the first file compiles the engine's kernels (``run_tasks`` and
 #: ``zoom`` in one process, where they share their routines) while the other
@@ -122,7 +122,8 @@ def small_batches(small_batch):
 #: side by side, and a process that loaded ``run_tasks`` from the cache then
 #: compiled ``zoom`` with all its routines: 21 s instead of 6 s).
 #: The comments are each file's seconds in ``python -m pytest --durations=0``
-#: from a fresh clone (2 cores, quiet, 2026-12-06); a file not named runs after
+#: from a fresh clone of revision 2c55919, before this order (2 cores, quiet,
+#: 2026-12-06; a file that compiles a kernel first takes longer); a file not named runs after
 #: these in pytest's own order.  Only the order changes: no test depends on it.
 LONGEST_FIRST = (
     "test_described_runs.py",   # 44 s: the engine's run_tasks, zoom and the mass blocks, compiled
