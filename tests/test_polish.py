@@ -30,21 +30,16 @@ from optdesign.runs import RunFolder
 GRID = 41
 
 
-def _paper_run(tmp_path_factory):
-    text = edited_text(PAPER.read_text(), {"population: 50 ": "population: 20 ", "generations: 100 ": "generations: 10 "})
-    cfg = parse_config(text, source=str(PAPER))
-    folder = RunFolder.create(tmp_path_factory.mktemp("paper"), "paper", text, 1, "k")
-    res = run_in_folder(cfg, folder, 1, pareto=True)
-    return cfg, res
-
-
 @pytest.fixture(scope="module")
 def paper_run(tmp_path_factory):
     """configs/p4s_paper.yaml with a small GA budget (20 x 10), pre-scan, polish and
     the multi-start of the extremes as shipped: (cfg, result).  One run for every
     test here (the polish's checks hold whatever the extremes' budget; a second
     run with a smaller multi-start cost the suite 25 s)."""
-    return _paper_run(tmp_path_factory)
+    text = edited_text(PAPER.read_text(), {"population: 50 ": "population: 20 ", "generations: 100 ": "generations: 10 "})
+    cfg = parse_config(text, source=str(PAPER))
+    folder = RunFolder.create(tmp_path_factory.mktemp("paper"), "paper", text, 1, "k")
+    return cfg, run_in_folder(cfg, folder, 1, pareto=True)
 
 
 def _grid_extremes(ev):
