@@ -89,6 +89,20 @@ def _signals_blocked():
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+#: a warnings filter for joblib's resource tracker: a process that watches the
+#: pool's semaphores and, when the batch ends after its workers were killed (a
+#: signal), reports each one it unlinks as "leaked" -- noise after the batch's
+#: own message, and the tracker is spawned with this process's environment
+TRACKER_QUIET = "ignore:resource_tracker:UserWarning"
+
+
+def _quiet_resource_tracker() -> None:
+    """Add :data:`TRACKER_QUIET` to ``PYTHONWARNINGS`` (kept: the user's own filters)."""
+    have = os.environ.get("PYTHONWARNINGS", "")
+    if TRACKER_QUIET not in have.split(","):
+        os.environ["PYTHONWARNINGS"] = f"{have},{TRACKER_QUIET}" if have else TRACKER_QUIET
+
+
 def _kill_local_workers() -> None:
     """Kill joblib's loky worker processes and their children (joblib's own
     abort kills the workers of the call, and may start fresh ones for the
@@ -297,6 +311,7 @@ def run_batch(tasks: Sequence[Task], out: str = "runs", jobs: int | None = 2, ba
         from joblib.externals.loky.process_executor import TerminatedWorkerError
 
         Path(out_abs).mkdir(parents=True, exist_ok=True)
+        _quiet_resource_tracker()
         attempt = 0
         while True:
             todo = [t for t in tasks if t.folder_name not in rows]
