@@ -148,28 +148,35 @@ def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
 
     kind = np.array([KIND_CODES[leg.kind] for leg in desc.legs], dtype=np.int64)
     branch = np.array([BRANCH_CODES[leg.branch] for leg in desc.legs], dtype=np.int64)
-    A, P, U, R0, AC = [], [], [], [], []
-    La, Lr = [], []
-    zero3 = np.zeros(shape + (3,))
-    for leg in desc.legs:
-        tb, tp = _bc(ev(leg.turn_base), shape), _bc(ev(leg.turn_platform), shape)
-        A.append(_turn(vec(leg.base), tb))
-        P.append(_turn(vec(leg.platform), tp))
-        u = _unit(_turn(vec(leg.direction), tb)) if leg.direction is not None else zero3
-        U.append(u)
-        if leg.reference is not None:
-            r = _turn(vec(leg.reference), tb)
-            r = r - np.sum(r * u, axis=-1, keepdims=True) * u
-            R0.append(_unit(r))
-        else:
-            R0.append(zero3)
-        AC.append(_unit(_turn(vec(leg.across), tb)) if leg.across is not None else zero3)
-        La.append(ev(leg.crank) if leg.crank is not None else 0.0)
-        Lr.append(ev(leg.rod) if leg.rod is not None else 0.0)
-    if n:
-        A, P, U, R0, AC = (np.stack(v, -2) for v in (A, P, U, R0, AC))
-    else:                                   # a chain description without shorthand legs
-        A = P = U = R0 = AC = np.zeros(shape + (0, 3))
+    legs = desc.legs
+
+    def leg_vecs(trees):
+        """S + (n, 3) from each leg's three trees (0 where a leg has none)."""
+        out = np.zeros(shape + (n, 3))
+        for i, t in enumerate(trees):
+            if t is not None:
+                for k in range(3):
+                    out[..., i, k] = ev(t[k])
+        return out
+
+    def has(trees):
+        return np.array([t is not None for t in trees], dtype=bool)[:, None]
+
+    # every leg at once (the same elementwise operations as leg by leg, so the same bits)
+    tb = per_leg([ev(leg.turn_base) for leg in legs])
+    tp = per_leg([ev(leg.turn_platform) for leg in legs])
+    A = _turn(leg_vecs([leg.base for leg in legs]), tb)
+    P = _turn(leg_vecs([leg.platform for leg in legs]), tp)
+    trees = [leg.direction for leg in legs]
+    U = np.where(has(trees), _unit(_turn(leg_vecs(trees), tb)), 0.0)
+    trees = [leg.reference for leg in legs]
+    r = _turn(leg_vecs(trees), tb)
+    r = r - np.sum(r * U, axis=-1, keepdims=True) * U
+    R0 = np.where(has(trees), _unit(r), 0.0)
+    trees = [leg.across for leg in legs]
+    AC = np.where(has(trees), _unit(_turn(leg_vecs(trees), tb)), 0.0)
+    La = [ev(leg.crank) if leg.crank is not None else 0.0 for leg in legs]
+    Lr = [ev(leg.rod) if leg.rod is not None else 0.0 for leg in legs]
     S0 = np.cross(U, R0)
     La, Lr = per_leg(La), per_leg(Lr)
     pose = desc.pose
