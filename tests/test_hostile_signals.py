@@ -106,7 +106,6 @@ def test_signal_stops_the_batch_and_its_workers(tmp_path, sig, to, status):
     assert len(manifests) == 2
 
 
-
 _LEAK = """
 import sys
 from optdesign.batch import execute
@@ -118,7 +117,7 @@ resource_tracker.register("/optdesign-test-never-unlinked", "semlock")   # as a 
 
 
 @pytest.mark.parametrize("user_filters", ["", "default::DeprecationWarning"])
-def test_the_resource_tracker_says_nothing_after_the_batch_line(tmp_path, user_filters):
+def test_the_resource_tracker_says_nothing_after_the_batch_line(tmp_path, monkeypatch, user_filters):
     """A semaphore left registered by a killed worker makes joblib's resource
     tracker (its own process, writing to the batch's stderr after the batch
     has exited) warn that it leaked: deterministic here, where the test above
@@ -136,16 +135,11 @@ def test_the_resource_tracker_says_nothing_after_the_batch_line(tmp_path, user_f
     assert got["batch"] == "", got["batch"]
     from optdesign.batch.execute import TRACKER_QUIET, _quiet_resource_tracker
 
-    os.environ["PYTHONWARNINGS"], old = user_filters, os.environ.get("PYTHONWARNINGS")
-    try:
-        _quiet_resource_tracker()
-        _quiet_resource_tracker()
-        assert os.environ["PYTHONWARNINGS"].split(",") == [f for f in (user_filters, TRACKER_QUIET) if f]
-    finally:
-        if old is None:
-            del os.environ["PYTHONWARNINGS"]
-        else:
-            os.environ["PYTHONWARNINGS"] = old
+    monkeypatch.setenv("PYTHONWARNINGS", user_filters)
+    _quiet_resource_tracker()
+    _quiet_resource_tracker()
+    assert os.environ["PYTHONWARNINGS"].split(",") == [f for f in (user_filters, TRACKER_QUIET) if f]
+
 
 _HOOK = '''
 import os, signal, sys
