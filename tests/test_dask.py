@@ -236,8 +236,8 @@ def test_a_listener_that_is_not_a_scheduler(tmp_path, mode):
     assert r.stderr.count("\n") == 1 and r.stderr.startswith("optdesign: error: "), r.stderr
     assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr
     # counted from the client's first contact (not from its start-up, which a busy machine stretches):
-    # the 2 s of --timeout and the exit, well below dask's own connect timeout of 30 s (tls without
-    # certificates is refused before any contact)
+    # the silent listener's 2 s of --timeout and the exit, the garbage answered at once, well below
+    # dask's own connect timeout of 30 s (tls without certificates is refused before any contact)
     assert listener.contacted == (scheme == "tcp"), r.stderr
     if mode == "garbage":
         assert "does not answer as a Dask scheduler" in r.stderr, r.stderr
