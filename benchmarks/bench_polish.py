@@ -50,7 +50,7 @@ class Side:
     """One package (this tree's ``optdesign`` or a revision's copy) on one config."""
 
     def __init__(self, pkg, config: str):
-        mod = lambda m: importlib.import_module(f"{pkg.__name__}.{m}")  # noqa: E731
+        mod = lambda m: importlib.import_module(f"{pkg.__name__}.{m}")
         cfg = mod("config").load_config(ROOT / "configs" / f"{config}.yaml")
         ev_mod = mod("evaluate")
         self.ev = ev_mod.Evaluator.from_config(cfg, ev_mod.workspace_of(cfg))
@@ -147,8 +147,8 @@ def main():
         ms = {name: {"values": np.inf, "full": np.inf} for name in sides}
         for _ in range(args.repeat):       # in alternation: a drift of the machine hits both
             for name, s in sides.items():
-                ms[name]["values"] = min(ms[name]["values"], _best_ms(lambda: s.calls(True), 1))
-                ms[name]["full"] = min(ms[name]["full"], _best_ms(lambda: s.calls(False), 1))
+                ms[name]["values"] = min(ms[name]["values"], _best_ms(lambda s=s: s.calls(True), 1))
+                ms[name]["full"] = min(ms[name]["full"], _best_ms(lambda s=s: s.calls(False), 1))
         here = sides["this tree"]
         print(f"  {config} ({here.route} route, {len(here.ev.workspace.X)} points):")
         for name in sides:
