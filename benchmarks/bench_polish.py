@@ -17,8 +17,8 @@ prints, per config:
 
 With ``--base REV`` the same measurements run on that revision's package
 (extracted by git into a temporary folder, as bench_evaluate_ab.py does)
-in alternation with this tree's, and print the ratio and whether the
-values are the same bits.
+in alternation with this tree's, and print the ratios and the largest
+relative difference of the values (0: the same bits).
 
     python benchmarks/bench_polish.py [--configs p4s_paper,delta_opt,sps_s_opt] [--repeat 3] [--base REV]
 
@@ -113,15 +113,26 @@ def _best_ms(fn, repeat: int) -> float:
     return best / DESIGNS * 1e3
 
 
-def _same_bits(a, b) -> bool:
+def _rel(a, b) -> float:
+    """The largest relative difference of two arrays (0.0: the same bits; NaN where both are NaN)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape:
+        return np.inf
+    both = np.isnan(a) & np.isnan(b)
+    with np.errstate(all="ignore"):
+        r = np.where(both | (a == b), 0.0, np.abs(a - b) / np.maximum(np.abs(b), 1e-300))
+    return float(np.max(r, initial=0.0))
+
+
+def _largest_difference(a, b) -> float:
+    """The largest relative difference of the values and constraints of two lists of Derivatives."""
+    worst = 0.0
     for da, db in zip(a, b):
         for k in da.values:
-            if not np.array_equal(np.asarray(da.values[k]), np.asarray(db.values[k]), equal_nan=True):
-                return False
+            worst = max(worst, _rel(da.values[k], db.values[k]))
         for k in da.constraints:
-            if not np.array_equal(np.asarray(da.constraints[k]), np.asarray(db.constraints[k]), equal_nan=True):
-                return False
-    return True
+            worst = max(worst, _rel(da.constraints[k], db.constraints[k]))
+    return worst
 
 
 def main():
@@ -155,9 +166,11 @@ def main():
             print(f"    {name:10s} values only {ms[name]['values']:6.2f} ms, full {ms[name]['full']:6.2f} ms per call")
         if base_pkg is not None:
             b = sides[args.base]
-            same = _same_bits(here.calls(True), b.calls(True)) and _same_bits(here.calls(False), b.calls(False))
+            dv = _largest_difference(here.calls(True), b.calls(True))
+            df = _largest_difference(here.calls(False), b.calls(False))
             print(f"    ratio (this / {args.base}): values only {ms['this tree']['values'] / ms[args.base]['values']:.2f}, "
-                  f"full {ms['this tree']['full'] / ms[args.base]['full']:.2f}; the same bits: {same}")
+                  f"full {ms['this tree']['full'] / ms[args.base]['full']:.2f}; largest relative difference of the "
+                  f"values: values only {dv:.1e}, full {df:.1e} (0: the same bits)")
         if k == 0:
             found = {}
             for name, s in sides.items():
@@ -166,7 +179,8 @@ def main():
                       f"iterations, {grads} gradient and {values} value-only evaluations "
                       f"({values / max(its, 1):.1f} per iteration)")
             if base_pkg is not None:
-                print(f"    the polished values the same bits: {found['this tree'] == found[args.base]}")
+                print(f"    the polished values' largest relative difference: "
+                      f"{_rel(np.array(found['this tree'], float), np.array(found[args.base], float)):.1e} (0: the same bits)")
     print(f"({_load()})")
 
 
