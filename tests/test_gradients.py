@@ -143,3 +143,61 @@ def test_local_derivatives_of_non_finite_or_singular_matrices_are_nan():
         v, g = local_derivative(kind, conv, {}, J, dJ, J, dJ)
         assert np.all(np.isfinite(v[[0, 3]])) and np.all(np.isfinite(g[[0, 3]])), kind
         assert np.all(np.isnan(v[1])) and np.all(np.isnan(g[1])), kind
+
+
+# ---------------------------------------------------------------------- values only, compiled path
+def test_values_only_from_the_compiled_path_equal_the_numpy_matrices_to_round_off():
+    """SLSQP's values-only calls take the engine's local values (W and the
+    hills' poses, optdesign.gradients._compiled_values); with the engine off
+    the same call takes the numpy matrices.  Random designs of the paper's
+    box, the worst case over W on: the index means, the singularity rows (W
+    and the hills) and the reachable fraction agree to 1e-12 relative, the
+    shapes (no derivative columns) the same."""
+    from optdesign import fast
+    from optdesign.evaluate import workspace_of
+    from optdesign.gradients import _compiled_values
+
+    cfg = load_config(CONFIGS / "p4s_paper.yaml")
+    ev = Evaluator.from_config(cfg, workspace_of(cfg))
+    assert ev.worst_case
+    rng = np.random.default_rng(7)
+    X = ev.xl + (ev.xu - ev.xl) * rng.random((6, len(ev.xl)))
+    hills = []
+    for x in X:
+        assert _compiled_values(ev, x[None]) is not None       # the compiled path answers here
+        got = derivatives(ev, x[None], "auto", values_only=True)
+        with fast.disabled():
+            assert _compiled_values(ev, x[None]) is None
+            ref = derivatives(ev, x[None], "auto", values_only=True)
+        assert got.route == ref.route == "ad"
+        assert set(got.values) == set(ref.values) and set(got.constraints) == set(ref.constraints)
+        for k in ref.values:
+            assert got.grads[k].shape == ref.grads[k].shape
+            np.testing.assert_allclose(got.values[k], ref.values[k], rtol=1e-12, atol=0)
+        for k in ref.constraints:
+            assert got.constraints[k].shape == ref.constraints[k].shape
+            assert got.constraint_grads[k].shape == ref.constraint_grads[k].shape
+            # log(cond / limit): near 0 where cond is near the limit, so compared absolutely
+            np.testing.assert_allclose(got.constraints[k], ref.constraints[k], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got.reach, ref.reach)
+        hills.append(int(np.sum(ref.constraints["singularity"][0, len(ev.workspace.X):] > -10.0)))   # climbed
+    assert sum(hills) > 0          # climbed hills compared too, not only W's points
+
+
+def test_values_only_keep_the_numpy_path_where_the_compiled_one_does_not_apply():
+    """Stroke limits (constraints on the actuators, which the compiled values
+    do not give) and a mechanism without an AD route (a described one, whose
+    polish takes central differences) never take the compiled values."""
+    from optdesign.evaluate import workspace_of
+    from optdesign.gradients import _compiled_values
+
+    cfg = load_config(CONFIGS / "p4s_paper.yaml")
+    ev = Evaluator.from_config(cfg, workspace_of(cfg))
+    x = 0.5 * (ev.xl + ev.xu)
+    assert _compiled_values(ev, x[None]) is not None
+    ev.stroke_limits = (-1.0, 1.0)
+    assert _compiled_values(ev, x[None]) is None
+    d = load_config(CONFIGS / "delta_opt.yaml")
+    evd = Evaluator.from_config(d, workspace_of(d))
+    assert _compiled_values(evd, (0.5 * (evd.xl + evd.xu))[None]) is None
+    assert derivatives(evd, (0.5 * (evd.xl + evd.xu))[None], "auto", values_only=True).route == "fd"
