@@ -249,14 +249,16 @@ def _extra(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     return out, grads
 
 
-def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, req, limit: float, n: int,
-                      values_only: bool):
+def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, limit: float, n: int, local):
     """The AD route's constraints ``log(cond / limit)`` (D, k) and their
     derivatives (D, k, n) at the local maximum of each hill of W the search
     climbed (``hills`` (D, k, dof)), largest first: where the largest moves
     from one hill to another the maximum over W has a kink, and the polish
     sees each hill before it becomes the largest.  An unreachable pose is a
-    violation (1); a hill not climbed an inactive row (-10, no derivative)."""
+    violation (1); a hill not climbed an inactive row (-10, no derivative).
+    ``local(mechanism, design, poses)`` gives cond at the poses (K,), whether
+    each is reachable (K,) and cond's derivative (K, n), or None when it
+    cannot answer (then None)."""
     D, k, _ = hills.shape
     c, g = np.full((D, k), -10.0), np.zeros((D, k, n))
     for i in range(D):
@@ -265,14 +267,38 @@ def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, re
             continue
         di = {key: v[i:i + 1] for key, v in designs.items()}
         mi = evaluator.mechanism(**{**evaluator.fixed, **{key: v[:, None] for key, v in di.items()}})
-        Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, hills[i][on], values_only)
+        got = local(mi, di, hills[i][on])
+        if got is None:
+            return None
+        v, reach, gv = got
+        good = reach & np.isfinite(v)
         with np.errstate(all="ignore"):
-            v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
-        good = np.all(np.isfinite(Qi[0]), axis=-1) & np.isfinite(v[0])
-        c[i, on] = np.where(good, np.log(v[0] / limit), 1.0)
-        g[i, on] = np.where(good[:, None], gv[0] / v[0][:, None], 0.0)
+            c[i, on] = np.where(good, np.log(v / limit), 1.0)
+            g[i, on] = np.where(good[:, None], gv / v[:, None], 0.0)
     order = np.argsort(-c, axis=1, kind="stable")
     return np.take_along_axis(c, order, axis=1), np.take_along_axis(g, order[..., None], axis=1)
+
+
+def _numpy_local(evaluator: Evaluator, req, values_only: bool):
+    """:func:`_hill_constraints`'s ``local`` from the numpy matrices (and CasADi's derivatives)."""
+    def local(mi, di, poses):
+        Ji, dJi, Mi, dMi, Qi, _ = _ad_matrices(evaluator, mi, di, poses, values_only)
+        with np.errstate(all="ignore"):
+            v, gv = local_derivative(req.kind, req.convention, req.option_dict(), Ji, dJi, Mi, dMi)
+        return v[0], np.all(np.isfinite(Qi[0]), axis=-1), gv[0]
+    return local
+
+
+def _compiled_local(req):
+    """:func:`_hill_constraints`'s ``local`` from the compiled path (values only: no derivative column)."""
+    def local(mi, di, poses):
+        with np.errstate(all="ignore"):
+            at = mi.local_values_at([req], poses[None])
+        if at is None:
+            return None
+        v = np.asarray(at[0][req.name], dtype=float)[0]
+        return v, np.asarray(at[1], dtype=bool)[0], np.zeros((len(v), 0))
+    return local
 
 
 def _compiled_values(evaluator: Evaluator, X: np.ndarray):
@@ -311,22 +337,10 @@ def _compiled_values(evaluator: Evaluator, X: np.ndarray):
         req = next(r for r in evaluator.requests_all if r.name == name)
         hills = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
                                       np.where(ok, local[name], np.inf), limit, hills=True)
-        c = np.full(hills.shape[:2], -10.0)
-        for i in range(D):
-            on = np.flatnonzero(np.all(np.isfinite(hills[i]), axis=1))
-            if not on.size:
-                continue
-            mi = evaluator.mechanism(**{**evaluator.fixed, **{k: v[i:i + 1, None] for k, v in designs.items()}})
-            with np.errstate(all="ignore"):
-                at = mi.local_values_at([req], hills[i][on][None])
-            if at is None:
-                return None
-            v, good = np.asarray(at[0][name], dtype=float)[0], np.asarray(at[1], dtype=bool)[0]
-            good &= np.isfinite(v)
-            with np.errstate(all="ignore"):
-                c[i, on] = np.where(good, np.log(v / limit), 1.0)
-        c = np.take_along_axis(c, np.argsort(-c, axis=1, kind="stable"), axis=1)
-        cons = np.concatenate([cons, c], axis=1)
+        got = _hill_constraints(evaluator, designs, hills, limit, 0, _compiled_local(req))
+        if got is None:
+            return None
+        cons = np.concatenate([cons, got[0]], axis=1)
     return values, grads, {"singularity": cons}, {"singularity": np.zeros(cons.shape + (0,))}, reach.mean(axis=-1)
 
 
@@ -366,7 +380,8 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
         req = next(r for r in evaluator.requests_all if r.name == name)
         hills = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
                                       np.where(ok, local[name], np.inf), limit, hills=True)
-        c, g = _hill_constraints(evaluator, designs, hills, req, limit, cgrads["singularity"].shape[-1], values_only)
+        c, g = _hill_constraints(evaluator, designs, hills, limit, cgrads["singularity"].shape[-1],
+                                 _numpy_local(evaluator, req, values_only))
         cons["singularity"] = np.concatenate([cons["singularity"], c], axis=1)
         cgrads["singularity"] = np.concatenate([cgrads["singularity"], g], axis=1)
     if evaluator.stroke_limits is not None:
