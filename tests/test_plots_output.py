@@ -50,6 +50,26 @@ def test_convergence_with_round_off_zeros_is_symlog_and_says_so():
         plt.close(fig)
 
 
+def test_no_decade_label_sits_on_the_zero_of_a_symlog_axis():
+    """Best values at 0 and means falling to 1e-5 (the reproduction's weighted
+    sum): the linear band below the smallest value holds no tick but 0, whose
+    label a decade tick there (1e-7) would overlap; the band's edge keeps its own."""
+    import matplotlib.pyplot as plt
+
+    from optdesign.report.png import convergence_figure
+
+    mean = [0.7, 1e-1, 1e-2, 1e-3, 1e-4, 2e-5, 1.5e-5, 9e-6]
+    fig = convergence_figure("c", _hist([0.0] * len(mean), mean))
+    try:
+        ax = fig.axes[0]
+        lin = ax.yaxis.get_transform().linthresh
+        lo, hi = ax.get_ylim()
+        ticks = [t for t in ax.get_yticks() if lo <= t <= hi]
+        assert 0.0 in ticks and all(t == 0 or abs(t) >= lin * (1 - 1e-9) for t in ticks), (ticks, lin)
+    finally:
+        plt.close(fig)
+
+
 # ---------------------------------------------------------------- pareto.png
 def test_pareto_markers_are_not_cut_at_the_frame():
     import matplotlib.pyplot as plt

@@ -81,8 +81,13 @@ def convergence_figure(name: str, hist: list[dict]):
         scale = "log scale"
     elif len(pos):
         # 0 on a linear band one decade below the smallest value that is not round-off
-        ax.set_yscale("symlog", linthresh=float(np.min(np.abs(pos))) / 10, linscale=1.5)
+        linthresh = float(np.min(np.abs(pos))) / 10
+        ax.set_yscale("symlog", linthresh=linthresh, linscale=1.5)
         scale = "symlog"
+        # no decade ticks inside the linear band: their labels would sit on top of 0's
+        ticks = ax.yaxis.get_major_locator().tick_values(*ax.get_ylim())
+        ax.yaxis.set_major_locator(matplotlib.ticker.FixedLocator(
+            [t for t in ticks if t == 0 or abs(t) >= linthresh * (1 - 1e-9)]))
     if zero:
         title += f"\n(|f| < {ROUND_OFF:g} shown as 0: round-off)"
     ax.set_xlabel("generation")
