@@ -217,3 +217,38 @@ def test_max_cond_and_unsupported_requests():
     assert mech.global_statistics([IndexRequest("x", "stiffness", None, (("zz", 1.0),))], X) is None
     with fast.disabled():
         assert mech.global_statistics([IndexRequest("d", "dexterity", "plain", ())], X) is None
+
+
+@pytest.mark.parametrize("name", ["gough_stewart.yaml", "delta.yaml", "sps_s_legs.yaml"])
+def test_local_values_at_shared_points_equal_the_numpy_values(name):
+    """The seam local_values (weighted quadratures, the adaptive cubature of
+    the reported designs' integrals) answers on the engine for a described
+    mechanism, with the numpy path's reachable mask and its values to 1e-12
+    of the index's scale."""
+    from optdesign.evaluate import index_requests
+    from optdesign.mechanisms import get
+    from optdesign.statistics import local_values
+
+    cfg = load_config(ROOT / "configs" / name)
+    cfg = _with_indices(cfg, dynamic=build(cfg, next(iter(cfg.designs))).description.has_dynamics)
+    rng = np.random.default_rng(11)
+    D = 4
+    des = {k: dv.value * rng.uniform(0.9, 1.1, (D, 1)) for k, dv in cfg.design_variables.items()}
+    mech = get(cfg.mechanism)(**{**cfg.parameters, **des})
+    X = workspace_of(cfg).X[:300]
+    req = index_requests(cfg)
+    got = mech.local_values(req, X)
+    assert got is not None
+    with fast.disabled():
+        ref, ref_reach = local_values(mech, X, req, D)
+    vals, reach = got
+    assert np.array_equal(reach, ref_reach)
+    assert reach.any()
+    for r in req:
+        a, b = vals[r.name], np.where(ref_reach, ref[r.name], np.nan)
+        assert np.array_equal(np.isfinite(a), np.isfinite(b)), r.name
+        ok = np.isfinite(b)
+        assert ok.any(), r.name
+        # relative to the index's scale over the points (as _compare): near-singular poses (the
+        # 3-SPS-S's condition numbers reach 1e4) round differently in the last bits
+        assert np.allclose(a[ok], b[ok], rtol=1e-12, atol=1e-12 * np.abs(b[ok]).max()), r.name

@@ -16,6 +16,7 @@ import numpy as np
 __all__ = ["Interval", "point", "hull"]
 
 _INF = np.inf
+_F = np.dtype(float)
 
 
 def _down(a):
@@ -33,6 +34,12 @@ class Interval:
     __array_priority__ = 1000
 
     def __init__(self, lo, hi=None):
+        if type(lo) is np.ndarray and type(hi) is np.ndarray and lo.dtype == _F and hi.dtype == _F \
+                and lo.shape == hi.shape:
+            # the common case (every operation's result): what np.broadcast_arrays returns for
+            # two float arrays of one shape, without its cost (4 of the 5 us of a construction)
+            self.lo, self.hi = lo, hi
+            return
         lo = np.asarray(lo, dtype=float)
         hi = lo if hi is None else np.asarray(hi, dtype=float)
         self.lo, self.hi = np.broadcast_arrays(lo, hi)

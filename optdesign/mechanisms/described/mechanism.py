@@ -283,6 +283,14 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return global_statistics(self, requests, X, want_max_cond)
 
+    def local_values(self, requests, X):
+        """The compiled path's local values of the designs at shared points X
+        (N, dof) (:func:`.compiled.local_values`: weighted quadratures and the
+        adaptive cubature), or None."""
+        from .compiled import local_values
+
+        return local_values(self, requests, X)
+
     def local_values_at(self, requests, X):
         """The compiled path's local values, each design at its own points X
         (D, K, dof) (:func:`.compiled.local_values_at`), or None."""
