@@ -252,3 +252,61 @@ def test_local_values_at_shared_points_equal_the_numpy_values(name):
         # relative to the index's scale over the points (as _compare): near-singular poses (the
         # 3-SPS-S's condition numbers reach 1e4) round differently in the last bits
         assert np.allclose(a[ok], b[ok], rtol=1e-12, atol=1e-12 * np.abs(b[ok]).max()), r.name
+
+
+def _shipped_engine_configs():
+    from optdesign.evaluate import mechanism_class
+    from optdesign.mechanisms.described.mechanism import DescribedMechanism
+    from optdesign.mechanisms.described.packing import description_codes
+
+    out = []
+    from optdesign.config import ConfigError
+
+    for path in sorted((ROOT / "configs").glob("*.yaml")):
+        try:
+            cfg = load_config(path)
+        except ConfigError:         # a batch file
+            continue
+        cls = mechanism_class(cfg)
+        if not issubclass(cls, DescribedMechanism):
+            continue
+        try:
+            description_codes(cls.description)
+        except ValueError:          # chain legs: the chain kernel's packing
+            continue
+        out.append(path.name)
+    return out
+
+
+@pytest.mark.parametrize("name", _shipped_engine_configs())
+def test_a_subset_of_designs_packs_as_the_rows_of_its_population(name):
+    """The worst-case search's mechanisms of some designs of a population
+    (Mechanism.rows_of) take the rows of the population's packing: the same
+    bits as packing them anew, for random designs in the box and any index
+    (repeats, one design, all); and a mechanism of (D, 1) parameters hits the
+    memo of the same designs given as (D,)."""
+    from optdesign.evaluate import mechanism_class
+    from optdesign.mechanisms.described import packing
+    from optdesign.mechanisms.described.memo import pack_key
+
+    cfg = load_config(ROOT / "configs" / name)
+    cls = mechanism_class(cfg)
+    rng = np.random.default_rng(len(name))
+    D = 23
+    des = {}
+    for k, dv in cfg.design_variables.items():
+        lo, hi = dv.bounds if dv.bounds else (0.9 * dv.value, 1.1 * dv.value) if dv.value else (-0.01, 0.01)
+        des[k] = rng.uniform(lo, hi, D)
+    population = cls(**{**cfg.parameters, **des})
+    for index in (np.array([4]), np.array([5, 5, 5, 9]), np.arange(D)[::-3], rng.integers(0, D, 40)):
+        fresh = packing._pack(cls(**{**cfg.parameters, **{k: v[index] for k, v in des.items()}}))
+        sub = cls(**{**cfg.parameters, **{k: v[index] for k, v in des.items()}})
+        sub.rows_of(population, index)
+        got = packing.pack(sub)
+        assert got[3] == fresh[3] == len(index)
+        for a, b in zip(got[0], fresh[0]):
+            assert np.array_equal(a, b)
+        assert np.array_equal(got[1], fresh[1], equal_nan=True) and np.array_equal(got[2], fresh[2], equal_nan=True)
+    column = cls(**{**cfg.parameters, **{k: v[:, None] for k, v in des.items()}})
+    assert pack_key(column) == pack_key(population)
+    assert pack_key(cls(**{**cfg.parameters, **{k: v[::-1] for k, v in des.items()}})) != pack_key(population)

@@ -358,3 +358,39 @@ def test_the_description_is_the_mechanism():
         assert np.all(np.abs(J0 - J1)[good] <= 1e-12 * np.abs(J0[good]).max(axis=(1, 2))[:, None, None])
         scale = 10 * EPS * c ** 2 * np.abs(M0).max(axis=(1, 2))
         assert np.all(np.abs(M0 - M1).max(axis=(1, 2)) <= scale)
+
+
+def test_a_subset_of_designs_packs_as_the_rows_of_its_population(monkeypatch):
+    """P4S.rows_of (the worst-case search's mechanisms of some designs of a
+    population): the engine's packing is the rows of the population's, the
+    same bits as packing the subset anew, for random designs in the box; and
+    the search gives the same maxima with and without it."""
+    from optdesign.mechanisms.described.packing import pack
+    from optdesign.worstcase import local_functions, maximize
+
+    cfg = load_config(PAPER)
+    rng = np.random.default_rng(17)
+    D = 19
+    des = {k: rng.uniform(*dv.bounds, D) if dv.bounds else np.full(D, dv.value)
+           for k, dv in cfg.design_variables.items()}
+    population = P4S(**{**cfg.parameters, **des})
+    for index in (np.array([0]), np.array([3, 3, 8]), rng.integers(0, D, 30)):
+        sub = P4S(**{**cfg.parameters, **{k: v[index] for k, v in des.items()}})
+        sub.rows_of(population, index)
+        fresh = compiled.pack(P4S(**{**cfg.parameters, **{k: v[index] for k, v in des.items()}}))
+        got = pack(compiled.described(sub))
+        assert got[3] == fresh[3] == len(index)
+        assert np.array_equal(got[1], fresh[1]) and np.array_equal(got[2], fresh[2])
+    from optdesign.evaluate import workspace_of
+
+    ws = workspace_of(cfg)
+    req = IndexRequest("c", "isotropy", "two_norm")
+    with np.errstate(all="ignore"):
+        vals, reach = population.local_values([req], ws.X)
+    sampled = np.where(reach, vals["c"], np.inf)
+    a = maximize(local_functions(P4S, cfg.parameters, des)["cond"], ws, sampled.copy(), hills=True)
+    monkeypatch.setattr(P4S, "rows_of", lambda self, population, index: None)   # every mechanism packed anew
+    b = maximize(local_functions(P4S, cfg.parameters, des)["cond"], ws, sampled.copy(), hills=True)
+    assert np.isfinite(a[0]).any()
+    for x, y in zip(a, b):
+        assert np.array_equal(x, y, equal_nan=True)

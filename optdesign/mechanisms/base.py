@@ -237,6 +237,14 @@ class Mechanism:
         them once per machine; the results are the same bits).  No compiled
         path: nothing to do."""
 
+    def rows_of(self, population: "Mechanism", index: np.ndarray) -> None:
+        """Note that this mechanism's designs are the designs ``index`` (M,)
+        of ``population`` (the same class and fixed parameters; the worst-case
+        search builds such a mechanism for the starts it evaluates), so that a
+        class may take per-design data ``population`` computed instead of
+        computing them again; the results must be the same bits.  By
+        default, nothing."""
+
     def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's local values for these requests at the points X
         (N, dof): ``(values, reachable)`` with ``values[request.name]`` (D, N)

@@ -63,9 +63,16 @@ def local_functions(mechanism: type, fixed: Mapping[str, float], designs: Mappin
     mechanism's compiled path (``Mechanism.local_values_at``) where it has
     one (and ``compiled``), else from the numpy path."""
     designs = {k: np.asarray(v, float) for k, v in designs.items()}
+    population = []
 
     def mech_of(index):
-        return mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
+        m = mechanism(**{**fixed, **{k: v[index] for k, v in designs.items()}})
+        if designs:
+            if not population:
+                population.append(mechanism(**{**fixed, **designs}))
+            D = len(next(iter(designs.values())))
+            m.rows_of(population[0], np.arange(D)[index])
+        return m
 
     request = IndexRequest("cond", kind, convention)
 

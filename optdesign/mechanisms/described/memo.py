@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CONSTANTS", "PACKS", "params_key"]
+__all__ = ["CONSTANTS", "PACKS", "pack_key", "params_key"]
 
 
 class _Recent:
@@ -31,6 +31,20 @@ class _Recent:
 CONSTANTS = _Recent(512)
 #: the engine's packing of the same (optdesign.mechanisms.described.packing)
 PACKS = _Recent(512)
+
+
+def pack_key(mech) -> tuple:
+    """:func:`params_key` with parameters of shape (D, 1) keyed as (D,): the
+    engine's packing is the same for both (an evaluation's mechanism has
+    the one, the worst-case search's the other)."""
+    key = mech.__dict__.get("_pack_key")
+    if key is None:
+        name, items = params_key(mech)
+        shape = np.broadcast_shapes(*(s for _, s, _ in items))
+        if len(shape) == 2 and shape[1] == 1:      # then every parameter of more than one value is (D, 1)
+            shape = shape[:1]
+        key = mech.__dict__["_pack_key"] = (name, shape, tuple((k, len(b), b) for k, _, b in items))
+    return key
 
 
 def params_key(mech) -> tuple:

@@ -21,11 +21,17 @@ def pack(mech):
     of mech, computed once per mechanism (its parameters do not change: the
     worst-case search calls the kernel thousands of times for one design)."""
     memo = mech.__dict__.get("_engine_pack")
+    if memo is None and "_rows_of" in mech.__dict__:
+        # the designs of another mechanism (DescribedMechanism.rows_of): its packing's rows, the same
+        # bits (each design's constants are computed elementwise over the designs)
+        population, index = mech.__dict__["_rows_of"]
+        codes, L, F, _ = pack(population)
+        memo = mech.__dict__["_engine_pack"] = (codes, L[index], F[index], len(index))
     if memo is None:
         from .mechanism import DescribedMechanism
-        from .memo import PACKS, params_key
+        from .memo import PACKS, pack_key
 
-        key = params_key(mech) if isinstance(mech, DescribedMechanism) else None
+        key = pack_key(mech) if isinstance(mech, DescribedMechanism) else None
         memo = PACKS.get(key) if key is not None else None
         if memo is None:
             memo = _pack(mech)

@@ -66,10 +66,26 @@ def described(mech):
     if d is None:
         d = described_class()(**{k: mech.params[k] for k in _NAMES})
         d.numpy_reference = mech       # the points the engine leaves to the numpy path: this model's own
-        if _flat(mech):
-            d.__dict__["_engine_pack"] = pack(mech)
+        rows = mech.__dict__.get("_rows_of")
+        if rows is not None and _flat(mech) and _flat(rows[0]):
+            d.rows_of(described(rows[0]), rows[1])       # the population's packing's rows (P4S.rows_of)
+        elif _flat(mech):
+            d.__dict__["_engine_pack"] = _recent_pack(mech)
         mech.__dict__["_described"] = d
     return d
+
+
+def _recent_pack(mech):
+    """:func:`pack`, kept for the designs packed last (an evaluation packs its
+    designs, then the worst-case search the same designs again)."""
+    from ..described.memo import PACKS, pack_key
+
+    key = ("P4S model",) + pack_key(mech)
+    got = PACKS.get(key)
+    if got is None:
+        got = pack(mech)
+        PACKS.put(key, got)
+    return got
 
 
 def pack(mech):
