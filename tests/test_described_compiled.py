@@ -283,8 +283,9 @@ def test_a_subset_of_designs_packs_as_the_rows_of_its_population(name):
     """The worst-case search's mechanisms of some designs of a population
     (Mechanism.rows_of) take the rows of the population's packing: the same
     bits as packing them anew, for random designs in the box and any index
-    (repeats, one design, all); and a mechanism of (D, 1) parameters hits the
-    memo of the same designs given as (D,)."""
+    (repeats, one design, all); and a mechanism of (D, 1) parameters, or of a
+    fixed parameter given per design, hits the memo of the same designs given
+    as (D,)."""
     from optdesign.evaluate import mechanism_class
     from optdesign.mechanisms.described import packing
     from optdesign.mechanisms.described.memo import pack_key
@@ -309,4 +310,10 @@ def test_a_subset_of_designs_packs_as_the_rows_of_its_population(name):
         assert np.array_equal(got[1], fresh[1], equal_nan=True) and np.array_equal(got[2], fresh[2], equal_nan=True)
     column = cls(**{**cfg.parameters, **{k: v[:, None] for k, v in des.items()}})
     assert pack_key(column) == pack_key(population)
+    # a parameter given once or per design, alike
+    every = {k: np.full(D, float(v)) for k, v in population.params.items() if k not in des and np.ndim(v) == 0}
+    assert every
+    assert pack_key(cls(**{**cfg.parameters, **des, **every})) == pack_key(population)
+    again, ref = packing._pack(cls(**{**cfg.parameters, **des, **every})), packing._pack(population)
+    assert np.array_equal(again[1], ref[1]) and np.array_equal(again[2], ref[2])     # equal keys, equal packings
     assert pack_key(cls(**{**cfg.parameters, **{k: v[::-1] for k, v in des.items()}})) != pack_key(population)

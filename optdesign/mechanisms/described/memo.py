@@ -34,16 +34,23 @@ PACKS = _Recent(512)
 
 
 def pack_key(mech) -> tuple:
-    """:func:`params_key` with parameters of shape (D, 1) keyed as (D,): the
-    engine's packing is the same for both (an evaluation's mechanism has
-    the one, the worst-case search's the other)."""
+    """The designs of ``mech`` as the engine's packing sees them: each
+    parameter's value in every design (broadcast over the designs, whose
+    shape (D, 1) counts as (D,)), so that (D, 1) and (D,) parameters, and a
+    fixed value given once or per design, key alike (an evaluation's
+    mechanism has the one, the worst-case search's the other); the packing
+    of a design depends on its own values only."""
     key = mech.__dict__.get("_pack_key")
     if key is None:
-        name, items = params_key(mech)
-        shape = np.broadcast_shapes(*(s for _, s, _ in items))
-        if len(shape) == 2 and shape[1] == 1:      # then every parameter of more than one value is (D, 1)
+        arrays = {k: np.asarray(v, dtype=float) for k, v in mech.params.items()}
+        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+        if len(shape) == 2 and shape[1] == 1:
             shape = shape[:1]
-        key = mech.__dict__["_pack_key"] = (name, shape, tuple((k, len(b), b) for k, _, b in items))
+        if len(shape) > 1:                  # not a packing's designs: the parameters as they are
+            return params_key(mech)
+        items = tuple((k, np.broadcast_to(a.reshape(a.shape[:1] if a.ndim == 2 and a.shape[1] == 1 else a.shape),
+                                          shape).tobytes()) for k, a in sorted(arrays.items()))
+        key = mech.__dict__["_pack_key"] = (type(mech).name, "pack", shape, items)
     return key
 
 
