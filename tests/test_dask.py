@@ -68,16 +68,19 @@ def cluster(tmp_path):
         client.close()
         yield address, procs
     finally:
-        for name in sorted(procs, key=lambda n: n == "scheduler"):   # workers first
-            p = procs[name]
-            if p.poll() is None:
-                p.terminate()
-        for p in procs.values():
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        # the workers first, while the scheduler still answers their goodbye (a worker closing after it
+        # waits for it), then the scheduler
+        workers = [p for n, p in procs.items() if n != "scheduler"]
+        for group in (workers, [procs[n] for n in procs if n == "scheduler"]):
+            for p in group:
+                if p.poll() is None:
+                    p.terminate()
+            for p in group:
+                try:
+                    p.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
         for log in logs:
             log.close()
 
