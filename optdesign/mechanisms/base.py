@@ -242,8 +242,9 @@ class Mechanism:
         of ``population`` (the same class and fixed parameters; the worst-case
         search builds such a mechanism for the starts it evaluates), so that a
         class may take per-design data ``population`` computed instead of
-        computing them again; the results must be the same bits.  By
-        default, nothing."""
+        computing them again, with the same bits (the engine's packing: the
+        described mechanisms and the 3-P(4S) read ``_rows_of``)."""
+        self.__dict__["_rows_of"] = (population, index)
 
     def local_values(self, requests: Sequence[IndexRequest], X: np.ndarray):
         """The compiled path's local values for these requests at the points X

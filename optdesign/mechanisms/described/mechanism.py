@@ -283,11 +283,6 @@ class DescribedMechanism(Mechanism, metaclass=DescribedMeta):
 
         return global_statistics(self, requests, X, want_max_cond)
 
-    def rows_of(self, population, index) -> None:
-        """The engine's packing of these designs: the rows ``index`` of
-        ``population``'s, taken when first needed (:func:`.packing.pack`)."""
-        self.__dict__["_rows_of"] = (population, index)
-
     def local_values(self, requests, X):
         """The compiled path's local values of the designs at shared points X
         (N, dof) (:func:`.compiled.local_values`: weighted quadratures and the

@@ -48,8 +48,8 @@ def pack_key(mech) -> tuple:
             shape = shape[:1]
         if len(shape) > 1:                  # not a packing's designs: the parameters as they are
             return params_key(mech)
-        items = tuple((k, np.broadcast_to(a.reshape(a.shape[:1] if a.ndim == 2 and a.shape[1] == 1 else a.shape),
-                                          shape).tobytes()) for k, a in sorted(arrays.items()))
+        flat = {k: a[:, 0] if a.ndim == 2 else a for k, a in arrays.items()}     # (D, 1) or (1, 1) as (D,)
+        items = tuple((k, np.broadcast_to(a, shape).tobytes()) for k, a in sorted(flat.items()))
         key = mech.__dict__["_pack_key"] = (type(mech).name, "pack", shape, items)
     return key
 

@@ -239,11 +239,6 @@ class P4S(Mechanism):
         """The engine's global indices on this mechanism's description (see :func:`.compiled.global_statistics`)."""
         return compiled.global_statistics(self, requests, X)
 
-    def rows_of(self, population, index) -> None:
-        """The engine's packing of these designs: the rows ``index`` of
-        ``population``'s (see :func:`.compiled.described`)."""
-        self.__dict__["_rows_of"] = (population, index)
-
     def local_values(self, requests, X):
         """The engine's local values (see :func:`.compiled.local_values`)."""
         return compiled.local_values(self, requests, X)
