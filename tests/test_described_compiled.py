@@ -317,3 +317,19 @@ def test_a_subset_of_designs_packs_as_the_rows_of_its_population(name):
     again, ref = packing._pack(cls(**{**cfg.parameters, **des, **every})), packing._pack(population)
     assert np.array_equal(again[1], ref[1]) and np.array_equal(again[2], ref[2])     # equal keys, equal packings
     assert pack_key(cls(**{**cfg.parameters, **{k: v[::-1] for k, v in des.items()}})) != pack_key(population)
+
+
+def test_the_packing_memo_keeps_small_populations_only():
+    """PACKS keeps the packings of at most PACK_DESIGNS designs (the polish's and
+    the search's, evaluated again), not a GA population's thousands."""
+    from optdesign.evaluate import mechanism_class
+    from optdesign.mechanisms.described import packing
+    from optdesign.mechanisms.described.memo import PACK_DESIGNS, PACKS, pack_key
+
+    cfg = load_config(ROOT / "configs" / "delta.yaml")
+    cls = mechanism_class(cfg)
+    for D, kept in ((PACK_DESIGNS, True), (PACK_DESIGNS + 1, False)):
+        des = {k: dv.value * np.linspace(0.95, 1.05, D) for k, dv in cfg.design_variables.items()}
+        mech = cls(**{**cfg.parameters, **des})
+        packing.pack(mech)
+        assert (PACKS.get(pack_key(mech)) is not None) == kept, D

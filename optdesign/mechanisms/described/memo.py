@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CONSTANTS", "PACKS", "pack_key", "params_key"]
+__all__ = ["CONSTANTS", "PACKS", "PACK_DESIGNS", "pack_key", "params_key"]
 
 
 class _Recent:
@@ -29,8 +29,11 @@ class _Recent:
 
 #: constants of the designs evaluated last (any described class; keyed by its name and parameters)
 CONSTANTS = _Recent(512)
-#: the engine's packing of the same (optdesign.mechanisms.described.packing)
+#: the engine's packing of the same (optdesign.mechanisms.described.packing), of at most
+#: PACK_DESIGNS designs (the polish's and the search's populations, which are evaluated again;
+#: 512 packings of a GA's thousands of designs would hold gigabytes)
 PACKS = _Recent(512)
+PACK_DESIGNS = 64
 
 
 def pack_key(mech) -> tuple:

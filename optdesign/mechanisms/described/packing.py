@@ -29,13 +29,13 @@ def pack(mech):
         memo = mech.__dict__["_engine_pack"] = (codes, L[index], F[index], len(index))
     if memo is None:
         from .mechanism import DescribedMechanism
-        from .memo import PACKS, pack_key
+        from .memo import PACK_DESIGNS, PACKS, pack_key
 
         key = pack_key(mech) if isinstance(mech, DescribedMechanism) else None
         memo = PACKS.get(key) if key is not None else None
         if memo is None:
             memo = _pack(mech)
-            if key is not None:
+            if key is not None and memo[3] <= PACK_DESIGNS:
                 PACKS.put(key, memo)
         mech.__dict__["_engine_pack"] = memo
     return memo

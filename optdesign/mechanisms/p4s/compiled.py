@@ -78,13 +78,14 @@ def described(mech):
 def _recent_pack(mech):
     """:func:`pack`, kept for the designs packed last (an evaluation packs its
     designs, then the worst-case search the same designs again)."""
-    from ..described.memo import PACKS, pack_key
+    from ..described.memo import PACK_DESIGNS, PACKS, pack_key
 
     key = ("P4S model",) + pack_key(mech)
     got = PACKS.get(key)
     if got is None:
         got = pack(mech)
-        PACKS.put(key, got)
+        if got[3] <= PACK_DESIGNS:
+            PACKS.put(key, got)
     return got
 
 
