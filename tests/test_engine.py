@@ -153,6 +153,39 @@ def test_the_digest_of_the_compiled_sources_is_current():
     assert K.ENGINE_DIGEST == K.engine_digest(), f"set ENGINE_DIGEST in optdesign/engine/kernels.py to {K.engine_digest()!r}"
 
 
+def test_the_warm_up_compiles_the_signatures_the_kernel_asks_for(monkeypatch):
+    """The helper of the first compile (optdesign.engine.warmup) types its calls
+    for fixed argument types: those must be the kernel's own on the generic
+    tier, for a planar and a spatial mechanism, else the helper's work is lost
+    (the kernel would compile the routines again; the results are the same)."""
+    from optdesign.config import load_config
+    from optdesign.engine import warm_calls as WC
+    from optdesign.evaluate import index_requests, mechanism_class, workspace_of
+
+    monkeypatch.setenv(engine.TIER_VAR, "generic")
+    for name in ("delta.yaml", "gough_stewart.yaml"):
+        cfg = load_config(__import__("conftest").CONFIGS / name)
+        X = workspace_of(cfg).X[:300]
+        mech = mechanism_class(cfg)(**cfg.parameters, **{k: dv.value for k, dv in cfg.design_variables.items()})
+        mech.global_statistics(index_requests(cfg, list(cfg.indices)), X)
+    generic = {sig for sig in K.run_tasks.signatures if sig[-2] == WC.KERNEL_TYPES[-2]}
+    assert generic == {WC.KERNEL_TYPES}
+    assert set(K.combine.signatures) == {WC.COMBINE_TYPES}
+
+
+def test_the_routines_cache_files_carry_the_digest_of_their_sources():
+    """The engine's routines are cached under names that carry the digest of
+    every source compiled into them, so an edit of any of them never loads a
+    stale routine; the digest moves with the files' contents."""
+    from optdesign.engine import digest, inverse, legs
+
+    key = digest.leaf_key()
+    assert legs._leg_strut.__qualname__.endswith(key) and inverse.inverse.__qualname__.endswith(key)
+    assert K._carve.__qualname__.endswith(key) and Dn.lmax.__qualname__.endswith(key)
+    assert set(digest.LEAF_SOURCES) >= set(K._SOURCES) | {"engine/kernels.py"}
+    assert digest.sources_digest(digest.LEAF_SOURCES[:-1])[:12] != key
+
+
 def test_the_tier_choice(monkeypatch):
     spec = G.KernelSpec((0, 1, 2), True, False)
     monkeypatch.delenv(engine.TIER_VAR, raising=False)

@@ -25,11 +25,14 @@ import numpy as np
 
 from ..fast import KernelModule
 from ..formulas import DYN, NVAL, kernel_value
+from . import warmup
 from .layout import CHUNK
 
 __all__ = ["KERNELS", "kernel_module", "plan", "run", "zoom", "workers", "specialize", "tier", "TIER_VAR"]
 
-KERNELS = KernelModule("optdesign.engine.kernels")
+#: loaded at the first use; if the engine's routines are not compiled yet,
+#: a helper process starts compiling its share of them then (:mod:`.warmup`)
+KERNELS = KernelModule("optdesign.engine.kernels", before_load=warmup.start)
 
 
 def kernel_module():
@@ -220,6 +223,8 @@ def _run(K, nw, args, sel, stats, part, cnt, want, out_codes):
     else:
         # one thread, or the machine's first call (it compiles the kernel): this thread's share first
         with KERNELS.compiling():
+            if sel is None:
+                warmup.finish(args)       # the routines on two processes, where none is cached yet
             KERNELS.guarded(task, 0)
         if KERNELS.module is None:      # it failed (a warning said why): the numpy path from now on
             return None

@@ -13,10 +13,9 @@ from __future__ import annotations
 import math
 
 from numba import uint64 as _u
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
 from ..fast._jit import lambda_max_psd as _lmax3_point
+from .digest import leaf
 from .layout import BLK, NMAX, TAU, VBETA, VMASK, VV0
 
 __all__ = ["COLS", "ROWS", "lmax", "bisect_flagged"]
@@ -24,7 +23,7 @@ __all__ = ["COLS", "ROWS", "lmax", "bisect_flagged"]
 #: single rows of the scratch after the Gram matrix and the vectors (offsets in rows)
 _S_, _BETA, _H, _SC, _SI, _X = range(6)
 
-@register_jitable(**_JITABLE)
+@leaf
 def _count_below(T, j, n, x):
     """The number of eigenvalues of the (scaled) tridiagonal T (diagonal rows
     0..n-1, squared off-diagonal rows n..) below x: sign changes of the leading
@@ -40,7 +39,7 @@ def _count_below(T, j, n, x):
     return cnt
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def bisect_flagged(T, out, V, n, m):
     """out[j] for the points flagged in V's row VV0 (lambda_max not certified by
     the Newton steps): bisection of the scaled tridiagonal T to the last bit,
@@ -64,7 +63,7 @@ def bisect_flagged(T, out, V, n, m):
 COLS, ROWS, UROWS = 0, 1, 2
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _gram(X, G, n, m, mode):
     """G's upper triangle (rows (a n + b) BLK, a <= b) = the Gram matrix of X."""
     for a in range(n):
@@ -86,13 +85,13 @@ def _gram(X, G, n, m, mode):
                         G[_u(o + j)] += X[_u(oa + j)] * X[_u(ob + j)]
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _g(a, b, n):
     """The row offset of entry (a, b) of the symmetric G (its upper triangle is stored)."""
     return (min(a, b) * n + max(a, b)) * BLK
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _lmax_big(X, out, T, V, S, n, m, mode, iters):
     """lambda_max of the Gram matrix of X (n >= 4): Householder
     tridiagonalization, the scaled tridiagonal into T (diagonal rows 0..n-1,

@@ -15,16 +15,15 @@ from __future__ import annotations
 import math
 
 from numba import uint64 as _u
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
 from ..fast._jit import dot3_dd as _dot3_dd
 from ..fast._jit import minor_dd as _minor_dd
+from .digest import leaf
 from .layout import BLK, VDET, VI2
 
 __all__ = ["inverse"]
 
-@register_jitable(**_JITABLE)
+@leaf
 def _inverse_small(A, U, V, n, m):
     """U = A^-1 for n <= 3 by the adjugate, its minors and the determinant in
     about twice the working precision (so U's entries are exact to a few ulps
@@ -102,7 +101,7 @@ def _inverse_small(A, U, V, n, m):
                                 + (u20 * u20 + u21 * u21 + u22 * u22))
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _qr_inverse(A, U, V, S, n, m):
     """U = R^-1 (upper triangle) for R of the Householder QR of A, |det A| =
     prod |R_kk| and ||U||_F^2 into V's rows VDET, VI2 (n >= 4).  S rows: 0 the

@@ -60,7 +60,7 @@ from ..fast._jit import chunk_moments
 from ..fast._jit import lambda_max_psd as _lmax3_point
 from . import layout as _layout
 from .codegen import GLOBALS, KernelSpec, routine_source
-from .digest import sources_digest
+from .digest import LEAF_SOURCES, keyed, leaf, sources_digest
 from .eigen import COLS, ROWS, bisect_flagged, lmax
 from .inverse import inverse
 from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, HARD_SMALL, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG,
@@ -75,10 +75,9 @@ from .mass import dyn
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "bc3e66528af2f22b"
+ENGINE_DIGEST = "bc1d44efe251306e"
 
-_SOURCES = ("engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py", "engine/layout.py",
-            "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py")
+_SOURCES = tuple(f for f in LEAF_SOURCES if f != "engine/kernels.py")
 
 
 def engine_digest() -> str:
@@ -97,6 +96,12 @@ if engine_digest() != ENGINE_DIGEST:
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
 _JITABLE_RED = {**_JITABLE, "fastmath": {"reassoc", "nsz"}}
+#: the generic routines (:func:`.inverse.inverse`, :func:`.eigen.lmax`,
+#: :func:`.mass.dyn`) as the selector overloads compile them: cached like
+#: the routines they call (:func:`.digest.leaf`)
+_CACHED = {**_JITABLE, "cache": True}
+for _f in (inverse, lmax, dyn):
+    keyed(_f)
 
 
 # ---------------------------------------------------------------------- the specialized tier
@@ -137,10 +142,17 @@ def inverse_sel(A, U, V, S, n, m, sel):
     """:func:`.dense.inverse`, or its generated fixed-size form (see above)."""
 
 
+@overload(inverse_sel, jit_options=_CACHED)
+def _ov_inverse_generic(A, U, V, S, n, m, sel):
+    return inverse if isinstance(sel, types.NoneType) else None
+
+
 @overload(inverse_sel, jit_options=_JITABLE)
 def _ov_inverse_sel(A, U, V, S, n, m, sel):
     sp = _sel_spec(sel)
-    if sp is None or sp[0] <= 3:
+    if sp is None:
+        return None
+    if sp[0] <= 3:
         return inverse
     gen = _generated("_inverse", sp[0])
     return lambda A, U, V, S, n, m, sel: gen(A, U, V, sel[0], m)
@@ -151,11 +163,16 @@ def lmax_sel(X, out, T, V, S, n, m, mode, iters, sel):
     compile-time there, ROWS/COLS and NEWTON/NEWTON_DYN as the kernel calls it)."""
 
 
+@overload(lmax_sel, jit_options=_CACHED)
+def _ov_lmax_generic(X, out, T, V, S, n, m, mode, iters, sel):
+    return lmax if isinstance(sel, types.NoneType) else None
+
+
 @overload(lmax_sel, jit_options=_JITABLE)
 def _ov_lmax_sel(X, out, T, V, S, n, m, mode, iters, sel):
     sp = _sel_spec(sel)
     if sp is None:
-        return lmax
+        return None
     rows = _generated("_lmax_rows", sp[0])
     cols = _generated("_lmax_cols", sp[0])
     # the same code when NEWTON_DYN == NEWTON: compiled once
@@ -176,11 +193,16 @@ def dyn_sel(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
     """:func:`.dense.dyn`, or its generated form for the spec."""
 
 
+@overload(dyn_sel, jit_options=_CACHED)
+def _ov_dyn_generic(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
+    return dyn if isinstance(sel, types.NoneType) else None
+
+
 @overload(dyn_sel, jit_options=_JITABLE)
 def _ov_dyn_sel(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
     sp = _sel_spec(sel)
     if sp is None:
-        return dyn
+        return None
     w = _generated("_dyn_w", sp[0], sp[1])
     mp = _generated("_mass_p", sp[0], sp[1])
 
@@ -198,7 +220,7 @@ WORDS = (NMAX * NLG * BLK + 4 * NMAX * NMAX * BLK + NB * BLK + 2 * NMAX * BLK + 
          + SROWS * BLK + NFR * BLK + NVAL * CHUNK + CHUNK)
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _carve(buf, n):
     """One worker's scratch as views of its buffer (WORDS floats, zeros at
     first, then what earlier calls left: finite numbers, which the code that
@@ -227,7 +249,7 @@ def _carve(buf, n):
     return (Lg, mats, B, T, V, S), FRb, vals, cbuf
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _alloc(n):
     """A fresh scratch (:func:`_carve` of a zero buffer)."""
     return _carve(np.zeros(WORDS), n)
@@ -318,7 +340,7 @@ def tail_codes(vb, cb, want, m):
                 cb[j] = 2.0 if (cb[j] == 1.0) & (not (x < np.inf and x > -np.inf)) else cb[j]
 
 
-@register_jitable(**_JITABLE_RED)
+@leaf(fastmath=_JITABLE_RED["fastmath"])
 def _chunk_stats(vals, cb, n_pts, want, out):
     """For each wanted value its sum, min, max and centred sum of squares over
     the points of code 1 (cb[j] == 1) into out (NVAL, 4); returns their count.
@@ -356,7 +378,7 @@ def _chunk_stats(vals, cb, n_pts, want, out):
     return k
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _load_block(FRd, lo, m, FRb):
     """The frame data of points lo..lo+m-1 (rows of FRd (N, rows)) into the rows of the block FRb."""
     rows = FRd.shape[1]

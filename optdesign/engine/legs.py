@@ -15,16 +15,15 @@ import math
 
 import numpy as np
 from numba import uint64 as _u
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
+from .digest import leaf
 from .layout import (BA, BLK, BS, BW, CT_ROLL, FCEN, FCOM, FIP, FMP, FRE, FRO_, FRR, GAL, GDE, GG, GGA, GK, GR, LA,
                     LE1, LE2, LFROD, LI12, LIROD, LLA, LLR, LM1, LM2, LMACT, LMROD, LP, LR0, LS0, LSG, LU, VOK)
 
 __all__ = ["legs", "pose_rows", "rigid"]
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, rot):
     """r = R P and b = (o + centre) + r at point j of the frame block (R = I
     for a translation pose, whose frame block has no R rows)."""
@@ -42,7 +41,7 @@ def _platform_point(FRb, j, P0, P1, P2, o0, o1, o2, rot):
     return r0, r1, r2, b0, b1, b2
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den):
     """g_i = (d, r x d) / den."""
     iv = 1.0 / den
@@ -54,7 +53,7 @@ def _twist_row(Li, j, r0, r1, r2, d0, d1, d2, den):
     Li[(GG + 5) * BLK + j] = (r0 * d1 - r1 * d0) * iv
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, l2, ma):
     """The leg's bodies in M_p (rod of mass mr centred at a + f d, transverse
     inertia ir, actuator body ma): with bdot = Vb xi, qdot = J xi and K = t.bdot,
@@ -80,7 +79,7 @@ def _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, l2, ma):
     Li[(GK + 5) * BLK + j] = r0 * t1 - r1 * t0
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn_, rot):
     """Slider at a = A + q u, rod of length l: q = u.w -+ sqrt((u.w)^2 - |w|^2 + l^2)."""
     A0 = L[d, i, LA]
@@ -134,12 +133,12 @@ def _leg_prismatic(L, F, d, i, ptype, FRb, br, m, Li, V, dyn_, rot):
             _rod_coefficients(Li, j, r0, r1, r2, u0, u1, u2, mr, ir, f, Lr * Lr, ma)
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _wrap(q):
     return q - 2.0 * math.pi * np.round(q / (2.0 * math.pi))
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn_, rot):
     """Crank of length L_a about k through A (tip A + L_a (cos q r0 + sin q s0)),
     rod of length l: q = atan2(Q, P) +- atan2(sqrt(P^2 + Q^2 - C^2), C)."""
@@ -207,7 +206,7 @@ def _leg_revolute(L, F, d, i, ptype, FRb, br, m, Li, V, dyn_, rot):
             _rod_coefficients(Li, j, r0, r1, r2, t0, t1, t2, mr, ir, f, Lr * Lr, ma)
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn_, rot):
     """Strut of actuated length q = |w|.  Bodies: the lower part (mass m1,
     centre e1 from A) and the upper part (m2, centre e2 from b), inertia I12
@@ -261,7 +260,7 @@ def _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn_, rot):
                 Li[(GDE if k == 6 else GK + k) * BLK + j] = 0.0
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def legs(L, F, d, ptype, kind, branch, FRb, m, Lg, V, dyn_, rot):
     """Every leg's closure, twist row and (dyn_) body coefficients at the block's points."""
     for i in range(kind.shape[0]):
@@ -275,7 +274,7 @@ def legs(L, F, d, ptype, kind, branch, FRb, m, Lg, V, dyn_, rot):
             _leg_strut(L, F, d, i, ptype, FRb, m, Li, dyn_, rot)
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def pose_rows(Lg, src, ct, FRb, m, J, n):
     """J[i, c] = (twist row src of leg i) . (column c of S)."""
     for i in range(n):
@@ -298,7 +297,7 @@ def pose_rows(Lg, src, ct, FRb, m, J, n):
 
 
 # ---------------------------------------------------------------------- mass matrix
-@register_jitable(**_JITABLE)
+@leaf
 def rigid(ptype, F, d, FRb, m, Lg, B, n, rot):
     """The rigid-body matrix sum_b m_b [I, -[r_b]x; [r_b]x, |r_b|^2 I - r_b r_b^T]
     of the platform (mass at R c) and the legs' shares alpha_i at r_i, plus the

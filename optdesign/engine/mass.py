@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 from numba import uint64 as _u
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
+from .digest import leaf
 from .layout import BA, BLK, BS, BW, CT_ROLL, FRE, GDE, GGA
 
 __all__ = ["dyn"]
 
-@register_jitable(**_JITABLE)
+@leaf
 def _b_row(k, l):
     """Entry (k, l), k <= l, of the rigid-body matrix from the rows of B
     (:func:`.kernels._rigid`): (row, sign), row -1 for a zero entry."""
@@ -40,12 +39,12 @@ def _b_row(k, l):
     return BW + 5, 1.0
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _b_entry(B, k, l, j, row, sign):
     return 0.0 if row < 0 else (B[_u(row * BLK + j)] if sign > 0.0 else -B[_u(row * BLK + j)])
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _euler(kind, k):
     """The component k of an Euler column (CT_ROLL: e0, e1, e2 on 3, 4, 5;
     CT_PITCH: e3, e4 on 3, 4): the row of the frame data's FRE rows, -1 if none."""
@@ -54,7 +53,7 @@ def _euler(kind, k):
     return k if (k == 3 or k == 4) else -1
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _dyn_small(Lg, J, Kp, U, W, S, n, rods, m, om, oq, ov):
     """W = U^T M_p for n <= 3 (U = J^-1, exact to a few ulps) with the legs'
     terms taken through J U = I instead of through M_p: U^T J_i^T = e_i, so

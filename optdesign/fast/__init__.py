@@ -133,10 +133,11 @@ def terminal_notice(stream=None):
     return notice
 
 
-def kernel_cache_present(module_name: str) -> bool:
+def kernel_cache_present(module_name: str, pattern: str | None = None) -> bool:
     """Whether numba's cache holds index files of the module's kernels (where
     numba looks: NUMBA_CACHE_DIR, the module's __pycache__, the user's cache
-    folder).  True when this cannot be told (no notice rather than a wrong one)."""
+    folder), or files matching ``pattern`` in that folder.  True when this
+    cannot be told (no notice rather than a wrong one)."""
     try:
         from importlib.util import find_spec
         from pathlib import Path
@@ -153,7 +154,7 @@ def kernel_cache_present(module_name: str) -> bool:
         dirs = [src.parent / "__pycache__", Path(AppDirs(appname="numba", appauthor=False).user_cache_dir) / sub]
         if config.CACHE_DIR:   # numba then uses that folder alone
             dirs = [Path(config.CACHE_DIR) / sub]
-        return any(d.is_dir() and any(d.glob(f"{src.stem}.*.nbi")) for d in dirs)
+        return any(d.is_dir() and any(d.glob(pattern or f"{src.stem}.*.nbi")) for d in dirs)
     except Exception:  # noqa: BLE001
         return True
 
@@ -164,9 +165,11 @@ class KernelModule:
     #: every kernel module declared so far (their caches tell whether a compile is ahead)
     instances: list = []
 
-    def __init__(self, name: str):
+    def __init__(self, name: str, before_load=None):
         KernelModule.instances.append(self)
         self.name = name
+        #: called (no arguments) before the module is first loaded; its errors are ignored
+        self.before_load = before_load
         self.module = None
         self.error: BaseException | None = None
         #: the module was loaded with no cache of its kernels (they compile at their first call)
@@ -177,6 +180,11 @@ class KernelModule:
         if self.module is None and self.error is None:
             _passive_workers()
             self.cold = not kernel_cache_present(self.name)
+            if self.before_load is not None:
+                try:
+                    self.before_load()
+                except Exception:  # noqa: BLE001 - a head start only
+                    pass
             try:
                 self.module = importlib.import_module(self.name)
             except Exception as exc:  # numba missing or broken: the numpy path
