@@ -8,9 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
 from .chain_layout import (
     B_C,
     B_I,
@@ -28,9 +26,10 @@ from .chain_layout import (
     S_SIGN,
     S_U,
 )
+from .digest import leaf
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _shorthand(kind, branch, SFi, o, R, G):
     """A shorthand leg's twist row G (6,) at the platform frame (o, R)
     (legs.leg_state); False where the leg does not close."""
@@ -108,7 +107,7 @@ def _shorthand(kind, branch, SFi, o, R, G):
     return True
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _mass(Xi, Um, o, R, GFd, legs, bod, BFd, tw, Rl, pl, n, M, T6):
     """M_p (n, n) in the independent coordinates (chain_dynamics.chain_dynamics's
     M): the platform through Xi = S P (6, n) and every link with a mass through

@@ -9,9 +9,6 @@ from __future__ import annotations
 
 import math
 
-from numba.extending import register_jitable
-
-from ..fast._jit import JITABLE as _JITABLE
 from .chain_dense import _det_positive, _finite, _lsq, _rodrigues
 from .chain_layout import (
     E_END,
@@ -32,10 +29,11 @@ from .chain_layout import (
     V_POINT,
     V_SIDE,
 )
+from .digest import leaf
 
 
 # ---------------------------------------------------------------------- the pose and the chains
-@register_jitable(**_JITABLE)
+@leaf
 def _frame(ptype, roles, X, dof, GFd, rv, o, R, S):
     """The platform frame (origin o, R) and the rate map S (6, dof) of the
     whole pose X (poses.frames, chain_solve.full_rate_map)."""
@@ -89,7 +87,7 @@ def _frame(ptype, roles, X, dof, GFd, rv, o, R, S):
             S[4, j] = cy
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _chain(k, voff, vcode, VFd, endref, u, tw, Rl, pl, Rc, pc, D, tmp):
     """One chain's product of exponentials at its joint values u[voff:voff + k]
     (chain_poe.chain_poe): the variables' spatial twists tw[v] (omega; v), the
@@ -178,7 +176,7 @@ def _chain(k, voff, vcode, VFd, endref, u, tw, Rl, pl, Rc, pc, D, tmp):
         tmp[a] = Rc[a, 0] * endref[0] + Rc[a, 1] * endref[1] + Rc[a, 2] * endref[2] + pc[a]
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _system(u, p, ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, nu, F, Fu, Fp, wk):
     """F (neq), Fu (neq, nu), Fp (neq, n) of the inverse problem at unknowns u
     and independent coordinates p (chain_solve.ik_system); the whole pose,
@@ -264,7 +262,7 @@ def _system(u, p, ptype, roles, cidx, legs, vcode, VFd, LFd, GFd, dof, n, nvar, 
             F[ro + 5] = L * (0.5 * (E10 - E01))
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _maxabs(F):
     """max |F|, NaN if any entry is NaN (numpy's max)."""
     r = 0.0
@@ -276,7 +274,7 @@ def _maxabs(F):
     return r
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _newton(u, p, tol, target, args, F, Fu, Fp, la):
     """Newton (Gauss-Newton) from u in place (chain_solve.newton, undamped):
     while max |F| > min(tol, target) L, at most ITERS steps; returns whether
@@ -301,7 +299,7 @@ def _newton(u, p, tol, target, args, F, Fu, Fp, la):
     return res <= tol * L
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _continuation(p1, u0, p0, start, wt, args, cur, new, la, vec, G):
     """The solution connected to (u0, p0) along the segment p0 -> p1
     (chain_solve.continuation, one point): into cur's u, with F, Fu, Fp

@@ -9,10 +9,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba.extending import register_jitable
 
-from ..fast._jit import JITABLE as _JITABLE
 from .chain_layout import HADAMARD, RCOND
+from .digest import leaf
 
 _LOG_HADAMARD = math.log(HADAMARD)
 #: exp(x) is 0 below this (numpy's det is sign * exp(log |det|))
@@ -20,12 +19,12 @@ _LOG_TINY = -745.2
 
 
 # ---------------------------------------------------------------------- small dense algebra
-@register_jitable(**_JITABLE)
+@leaf
 def _finite(x):
     return x - x == 0.0
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _lu(A, nr, piv):
     """LU with partial pivoting of A[:nr, :nr] in place (rows swapped, the
     multipliers below the diagonal); piv[k] the row swapped with k; returns
@@ -58,7 +57,7 @@ def _lu(A, nr, piv):
     return sgn
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _lsq(A, B, m, nu, r, X, W, Wb, piv):
     """X[:nu, :r] = the least-squares solution of A[:m, :nu] X = B[:m, :r]
     (m >= nu, full column rank) as chain_poe.lsq: False where A or B is not
@@ -158,7 +157,7 @@ def _lsq(A, B, m, nu, r, X, W, Wb, piv):
     return True
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _det_positive(G, nr, piv):
     """det G[:nr, :nr] > 0 as numpy computes it (sign exp(log |det|), 0 where that underflows)."""
     sgn = _lu(G, nr, piv)
@@ -173,7 +172,7 @@ def _det_positive(G, nr, piv):
     return sgn > 0.0 and logdet > _LOG_TINY
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _rodrigues(a0, a1, a2, t, D):
     """D = Rot(a, t) = cos t I + sin t skew(a) + (1 - cos t) a a^T."""
     s = math.sin(t)

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from numba.extending import register_jitable
 
 from ..fast._jit import JITABLE as _JITABLE
 from ..fast._jit import NJIT as _NJIT
@@ -40,14 +39,14 @@ from .chain_bodies import _mass, _shorthand
 from .chain_closure import _continuation, _system
 from .chain_dense import _lsq
 from .chain_layout import F_L, F_P0, G_ACT, G_VOFF, H_DOF, H_N, H_NEQ, H_NU, H_NVAR, H_PTYPE
-from .digest import sources_digest
+from .digest import leaf, sources_digest
 from .kernels import WORDS, _carve, _chunk_stats, combine, tail_codes, tail_j, tail_w  # noqa: F401 (WORDS, combine)
 from .layout import BLK, CHUNK, NMAX, NVAL, VOK
 
 #: numba's cache of these kernels watches this file only: it records the
 #: digest of the other files compiled into them (kernels.py and its own
 #: sources, the chain modules); tests/test_chain_compiled.py checks it
-CHAIN_DIGEST = "6357d6d0b9b94010"
+CHAIN_DIGEST = "6674f2219828bd9a"
 
 _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py", "engine/chain_closure.py",
             "engine/chain_bodies.py") + _kernels._SOURCES
@@ -68,7 +67,7 @@ if chain_digest() != CHAIN_DIGEST or not _kernels._NJIT.get("cache", True):
 
 
 # ---------------------------------------------------------------------- one point
-@register_jitable(**_JITABLE)
+@leaf
 def _workspace(dof, n, nvar, nu, neq):
     """One thread's per-point scratch for these sizes."""
     r = max(n, 1)
@@ -86,7 +85,7 @@ def _workspace(dof, n, nvar, nu, neq):
     return wk, cur, new, la, vec, mats, home
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _design(I, VFd, LFd, GFd, uh, ws):
     """Per design, before its points: the continuation's weights and the
     system at its home configuration (the start of every point's segment)."""
@@ -98,7 +97,7 @@ def _design(I, VFd, LFd, GFd, uh, ws):
             hdr[H_NVAR], hdr[H_NU], F0, Fu0, Fp0, ws[0])
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _weights(hdr, roles, cidx, vcode, GFd, wt):
     """Per unknown: L for angles, 1 for lengths (the continuation's jump test;
     ChainMechanism._weights)."""
@@ -112,7 +111,7 @@ def _weights(hdr, roles, cidx, vcode, GFd, wt):
             wt[nvar - 1 - c] = L if roles[i] >= 3 else 1.0
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
     """J (n, n) and, with dyn_, M_p (n, n) of one design at the independent
     coordinates x (the pose's, through the map) into ws's mats[5], mats[8];
@@ -183,7 +182,7 @@ def _point(I, VFd, LFd, SFd, BFd, GFd, uh, x, Df, dyn_, ws):
     return True
 
 
-@register_jitable(**_JITABLE)
+@leaf
 def _w_of(U, Mb, Wm, n, m):
     """W = U^T M_p (rows of BLK; U upper triangular for n >= 4, as tail_j leaves it)."""
     upper = n >= 4

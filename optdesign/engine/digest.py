@@ -21,7 +21,9 @@ __all__ = ["sources_digest", "LEAF_SOURCES", "leaf", "keyed"]
 
 #: the files whose code or numbers the engine's routines compile in (paths relative to the package)
 LEAF_SOURCES = ("engine/kernels.py", "engine/legs.py", "engine/inverse.py", "engine/eigen.py", "engine/mass.py",
-                "engine/layout.py", "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py")
+                "engine/layout.py", "engine/codegen.py", "engine/spec.py", "formulas.py", "fast/_jit.py",
+                "engine/chain_kernels.py", "engine/chain_layout.py", "engine/chain_dense.py", "engine/chain_closure.py",
+                "engine/chain_bodies.py")
 
 
 def sources_digest(sources) -> str:

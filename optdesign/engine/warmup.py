@@ -48,7 +48,7 @@ def needed() -> bool:
     from ..fast import kernel_cache_present
     from .digest import leaf_key
 
-    return not kernel_cache_present("optdesign.engine.kernels", f"*__{leaf_key()}-*.nbi")
+    return not kernel_cache_present("optdesign.engine.kernels", f"legs.legs__{leaf_key()}-*.nbi")
 
 
 def start() -> None:
