@@ -79,8 +79,10 @@ def type_calls(fn, argtypes) -> None:
 
 
 def here(args) -> None:
-    """This process's share for the kernel's first call with (0, nw) + args... as passed to it."""
+    """This process's share for the kernel's first call with ``args`` (its
+    arguments but the worker's number and count), then :func:`.kernels.combine`."""
     type_calls(here_calls, tuple(numba.typeof(a) for a in (0, 1) + tuple(args)))
+    combine.compile(COMBINE_TYPES)
 
 
 def _main() -> int:
@@ -94,7 +96,6 @@ def _main() -> int:
     if os.getppid() != parent:
         return 0
     type_calls(helper_calls, KERNEL_TYPES)
-    combine.compile(COMBINE_TYPES)
     return 0
 
 

@@ -8,10 +8,10 @@ engine), they compile on both cores before the kernel does:
 
 * :func:`start`, called as the kernel module is first loaded, starts a helper
   process (``python -m optdesign.engine.warm_calls``) that compiles the
-  routines of :func:`.warm_calls.helper_calls` and :func:`.kernels.combine`
-  into the cache;
+  routines of :func:`.warm_calls.helper_calls` into the cache;
 * :func:`finish`, called before the kernel's first call, compiles those of
-  :func:`.warm_calls.here_calls` in this process and waits for the helper;
+  :func:`.warm_calls.here_calls` and :func:`.kernels.combine` in this process
+  and waits for the helper;
 * the kernel then compiles itself, loading every routine from the cache.
 
 The kernel's results do not depend on any of this: a routine the two lists
