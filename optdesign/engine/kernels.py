@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 
+import llvmlite.binding as _llvm
 import numpy as np
 from numba import njit, types
 from numba import uint64 as _u
@@ -92,6 +93,12 @@ if engine_digest() != ENGINE_DIGEST:
                   "the kernels compile without numba's cache until ENGINE_DIGEST is updated",
                   RuntimeWarning, stacklevel=1)
     _NJIT = {**_NJIT, "cache": False}
+
+# LLVM's loop strength reduction is the largest single pass of the kernels'
+# machine code (a tenth of the first compile) and gains them nothing measurable
+# (docs/performance.md): off for the compiles of this process (an LLVM option
+# is global: numba code compiled later in the process is built without it too)
+_llvm.set_option("optdesign", "--disable-lsr")
 
 #: the chunk reductions only: reassociation lets LLVM vectorize the sums (the
 #: order is still fixed by the code, so results do not depend on threads)
