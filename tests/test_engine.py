@@ -173,6 +173,52 @@ def test_the_warm_up_compiles_the_signatures_the_kernel_asks_for(monkeypatch):
     assert set(K.combine.signatures) == {WC.COMBINE_TYPES}
 
 
+_COLD_COMPILE = """
+import sys
+from numba.core import event
+from optdesign.config import load_config
+from optdesign.evaluate import index_requests, mechanism_class, workspace_of
+depth, inside = [0], []
+class L(event.Listener):
+    def on_start(self, ev):
+        if depth[0] and ev.data["dispatcher"].py_func.__name__ != "run_tasks":
+            inside.append(ev.data["dispatcher"].py_func.__qualname__)
+        if ev.data["dispatcher"].py_func.__name__ == "run_tasks":
+            depth[0] += 1
+    def on_end(self, ev):
+        if ev.data["dispatcher"].py_func.__name__ == "run_tasks":
+            depth[0] -= 1
+event.register("numba:compile", L())
+cfg = load_config(sys.argv[1])
+mech = mechanism_class(cfg)(**cfg.parameters, **{k: dv.value for k, dv in cfg.design_variables.items()})
+mech.global_statistics(index_requests(cfg, list(cfg.indices)), workspace_of(cfg).X[:300])
+print("INSIDE", sorted(set(inside)))
+"""
+
+
+@pytest.mark.slow
+def test_the_first_compile_on_two_processes_leaves_the_kernel_nothing_to_compile(tmp_path):
+    """From an empty numba cache, the warm-up (a helper process and this one)
+    compiles every routine run_tasks links before run_tasks compiles: inside
+    run_tasks's compile numba compiles none of them (their signatures are the
+    kernel's), only numba's own small helpers if any."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), OPTDESIGN_KERNEL="generic")
+    env.pop("OPTDESIGN_WARMUP", None)
+    p = subprocess.run([sys.executable, "-c", _COLD_COMPILE, str(__import__("conftest").CONFIGS / "delta.yaml")],
+                       env=env, capture_output=True, text=True, timeout=1200)
+    assert p.returncode == 0, p.stderr[-2000:]
+    (line,) = [x for x in p.stdout.splitlines() if x.startswith("INSIDE")]
+    inside = eval(line[len("INSIDE "):])  # noqa: S307 - a list of names this test printed
+    from optdesign.engine.digest import leaf_key
+
+    assert not [q for q in inside if q.endswith(leaf_key())], inside
+    assert list((tmp_path / "cache").rglob(f"eigen.lmax__{leaf_key()}-*.nbi")), "the helper's share is not cached"
+
+
 def test_the_routines_cache_files_carry_the_digest_of_their_sources():
     """The engine's routines are cached under names that carry the digest of
     every source compiled into them, so an edit of any of them never loads a

@@ -32,7 +32,7 @@ __all__ = ["start", "finish", "needed", "ENV_VAR"]
 #: ``0`` turns the two-process first compile off (the kernel then compiles every routine itself)
 ENV_VAR = "OPTDESIGN_WARMUP"
 #: the longest wait for the helper (s); past it the kernel compiles what is missing
-TIMEOUT = 600.0
+TIMEOUT = 300.0
 
 _LOCK = threading.Lock()
 _HELPER: subprocess.Popen | None = None
@@ -86,11 +86,18 @@ def finish(args) -> None:
             here(args)
         except Exception:  # noqa: BLE001 - the kernel compiles what is missing
             pass
-        finally:
-            try:
-                helper.wait(timeout=TIMEOUT)
-            except BaseException:
-                helper.kill()
-                helper.wait()
-                if not isinstance(sys.exc_info()[1], subprocess.TimeoutExpired):
-                    raise
+        except BaseException:       # a signal: the helper goes too
+            _stop(helper)
+            raise
+        try:
+            helper.wait(timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            _stop(helper)
+        except BaseException:
+            _stop(helper)
+            raise
+
+
+def _stop(helper) -> None:
+    helper.kill()
+    helper.wait()
