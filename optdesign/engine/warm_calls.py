@@ -17,7 +17,6 @@ from numba.core import compiler, typed_passes
 from numba.core.registry import cpu_target
 
 from .eigen import COLS, ROWS
-from .inverse import _qr_inverse
 from .kernels import _carve, _chunk_stats, _load_block, combine, dyn_sel, inverse_sel, lmax_sel
 from .layout import BLK, GG, NEWTON, NEWTON_DYN, VLU
 from .legs import legs, pose_rows, rigid
@@ -38,8 +37,7 @@ COMBINE_TYPES = (_t.Array(_t.float64, 4, "C"), _t.Array(_t.int64, 2, "C"), _t.Ar
 
 def here_calls(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, part, cnt, keep, sel, buf):
     """This process's share, as :func:`.kernels._block` makes the calls: the
-    legs, the mass matrix, the chunk statistics and, last (the helper has
-    compiled the QR inverse it links by then), the inverse."""
+    legs, the platform's rigid body, the mass matrix and the chunk statistics."""
     n = kind.shape[0]
     scratch, FRb, vals, cbuf = _carve(buf[w], n)
     Lg, mats, B, T, V, S = scratch
@@ -48,25 +46,21 @@ def here_calls(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, 
     dyn_, rods, rot = flags[0], flags[4], flags[5]
     _load_block(FR[0], d, m, FRb)
     legs(L, F, d, ptype, kind, branch, FRb, m, Lg, V, dyn_, rot)
+    rigid(ptype, F, d, FRb, m, Lg, B, n, rot)
     dyn_sel(B, Lg, mats[0], mats[2], FRb, mats[1], mats[3], S, n, ct, rods, m, False, sel)
     cnt[d, d] = _chunk_stats(vals, cbuf, m, want, part[d, d])
-    inverse_sel(mats[0], mats[1], V, S, n, m, sel)
 
 
 def helper_calls(w, nw, ptype, ct, kind, branch, L, F, FR, N, want, flags, codes, part, cnt, keep, sel, buf):
-    """The helper's share: the pose rows, the platform's rigid body, the QR
-    inverse (n >= 4) and the largest eigenvalues, as :func:`.kernels._block`,
-    :func:`.inverse.inverse`, :func:`.kernels.tail_j` and
+    """The helper's share: the pose rows, the inverse and the largest
+    eigenvalues, as :func:`.kernels._block`, :func:`.kernels.tail_j` and
     :func:`.kernels.tail_w` make the calls."""
     n = kind.shape[0]
     scratch, FRb, vals, cbuf = _carve(buf[w], n)
     Lg, mats, B, T, V, S = scratch
-    d = w
     m = n
-    rot = flags[5]
     pose_rows(Lg, GG, ct, FRb, m, mats[0], n)
-    rigid(ptype, F, d, FRb, m, Lg, B, n, rot)
-    _qr_inverse(mats[0], mats[1], V, S, n, m)
+    inverse_sel(mats[0], mats[1], V, S, n, m, sel)
     lmax_sel(mats[1], V[VLU * BLK:(VLU + 1) * BLK], T, V, S, n, m, ROWS, NEWTON, sel)
     lmax_sel(mats[3], V[VLU * BLK:(VLU + 1) * BLK], T, V, S, n, m, COLS, NEWTON_DYN, sel)
 
