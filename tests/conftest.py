@@ -138,11 +138,11 @@ LONGEST_FIRST = (
     "test_interrupt.py",        # 78 s
     "test_runs.py",             # 67 s
     "test_dask.py",             # 35 s
+    "test_engine.py",           # 45 s: the specialized tier, a first compile from an empty cache
     "test_report_html.py",      # 35 s
     "test_chain_compiled.py",   # 34 s
     "test_presentation.py",     # 31 s
     "test_polish.py",           # 30 s
-    "test_engine.py",           # 30 s
     "test_field_trial_output.py",
     "test_batch_execute.py",
     "test_determinism.py",
