@@ -229,7 +229,22 @@ def test_the_routines_cache_files_carry_the_digest_of_their_sources():
     assert legs._leg_strut.__qualname__.endswith(key) and inverse.inverse.__qualname__.endswith(key)
     assert K._carve.__qualname__.endswith(key) and Dn.lmax.__qualname__.endswith(key)
     assert set(digest.LEAF_SOURCES) >= set(K._SOURCES) | {"engine/kernels.py"}
-    assert digest.sources_digest(digest.LEAF_SOURCES[:-1])[:12] != key
+    assert key == digest.sources_digest(digest.LEAF_SOURCES)[:12]
+
+
+def test_the_sources_digest_moves_with_any_byte_of_any_file(tmp_path):
+    from optdesign.engine import digest
+
+    names = ["a.py", "b/c.py"]
+    (tmp_path / "b").mkdir()
+    (tmp_path / "a.py").write_text("X = 1\n")
+    (tmp_path / "b/c.py").write_text("Y = 2\n")
+    base = digest.sources_digest(names, tmp_path)
+    assert digest.sources_digest(names, tmp_path) == base
+    (tmp_path / "b/c.py").write_text("Y = 3\n")
+    assert digest.sources_digest(names, tmp_path) != base
+    (tmp_path / "b/c.py").write_text("Y = 2\n")
+    assert digest.sources_digest(names, tmp_path) == base
 
 
 def test_the_tier_choice(monkeypatch):

@@ -26,10 +26,11 @@ LEAF_SOURCES = ("engine/kernels.py", "engine/legs.py", "engine/inverse.py", "eng
                 "engine/chain_bodies.py")
 
 
-def sources_digest(sources) -> str:
-    """sha256 (first 16 hex digits) of the files ``sources`` (paths relative to the package)."""
+def sources_digest(sources, top=None) -> str:
+    """sha256 (first 16 hex digits) of the files ``sources`` (paths relative
+    to ``top``, by default the package's folder)."""
     h = hashlib.sha256()
-    top = Path(__file__).parents[1]
+    top = Path(__file__).parents[1] if top is None else Path(top)
     for rel in sources:
         h.update((top / rel).read_bytes())
     return h.hexdigest()[:16]
