@@ -46,7 +46,7 @@ from .layout import BLK, CHUNK, NMAX, NVAL, VOK
 #: numba's cache of these kernels watches this file only: it records the
 #: digest of the other files compiled into them (kernels.py and its own
 #: sources, the chain modules); tests/test_chain_compiled.py checks it
-CHAIN_DIGEST = "5648c5e810d17181"
+CHAIN_DIGEST = "061ed59b75e3b8ca"
 
 _SOURCES = ("engine/kernels.py", "engine/chain_layout.py", "engine/chain_dense.py", "engine/chain_closure.py",
             "engine/chain_bodies.py") + _kernels._SOURCES

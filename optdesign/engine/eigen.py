@@ -15,7 +15,7 @@ import math
 from numba import uint64 as _u
 
 from ..fast._jit import lambda_max_psd as _lmax3_point
-from .digest import leaf
+from .digest import keyed, leaf
 from .layout import BLK, NMAX, TAU, VBETA, VMASK, VV0
 
 __all__ = ["COLS", "ROWS", "lmax", "bisect_flagged"]
@@ -266,6 +266,7 @@ def _lmax_big(X, out, T, V, S, n, m, mode, iters):
     bisect_flagged(T, out, V, n, m)
 
 
+@keyed
 def lmax(X, out, T, V, S, n, m, mode, iters, sel):
     """out[j] = lambda_max of the Gram matrix of X's n x n matrix at point j
     (mode COLS: X^T X; ROWS: X X^T for X from :func:`inverse`, upper

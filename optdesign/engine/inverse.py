@@ -18,7 +18,7 @@ from numba import uint64 as _u
 
 from ..fast._jit import dot3_dd as _dot3_dd
 from ..fast._jit import minor_dd as _minor_dd
-from .digest import leaf
+from .digest import keyed, leaf
 from .layout import BLK, VDET, VI2
 
 __all__ = ["inverse"]
@@ -190,6 +190,7 @@ def _qr_inverse(A, U, V, S, n, m):
         V[_u(VI2 * BLK + j)] = S[_u(j)]
 
 
+@keyed
 def inverse(A, U, V, S, n, m, sel):
     """U = A^-1 (n <= 3) or R^-1 of A = QR (n >= 4: upper triangular, with the
     singular values of A^-1; Q is never formed); V rows VDET <- |det A|,

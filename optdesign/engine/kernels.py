@@ -61,7 +61,7 @@ from ..fast._jit import chunk_moments
 from ..fast._jit import lambda_max_psd as _lmax3_point
 from . import layout as _layout
 from .codegen import GLOBALS, KernelSpec, routine_source
-from .digest import LEAF_SOURCES, keyed, leaf, sources_digest
+from .digest import LEAF_SOURCES, leaf, sources_digest
 from .eigen import COLS, ROWS, bisect_flagged, lmax
 from .inverse import inverse
 from .layout import (BLK, CHUNK, COL0, DET, DYN, FRO, GG, GK, HARD, HARD_SMALL, IFRO, NB, NEWTON, NEWTON_DYN, NFR, NLG,
@@ -76,7 +76,7 @@ from .mass import dyn
 #: file records their digest, so that editing them means editing this file
 #: too (tests/test_engine.py checks it); until then the kernels compile
 #: without the cache (a warning says so), never from a stale one
-ENGINE_DIGEST = "bc1d44efe251306e"
+ENGINE_DIGEST = "3744339e8a20445b"
 
 _SOURCES = tuple(f for f in LEAF_SOURCES if f != "engine/kernels.py" and "chain_" not in f)
 
@@ -104,11 +104,10 @@ _llvm.set_option("optdesign", "--disable-lsr")
 #: order is still fixed by the code, so results do not depend on threads)
 _JITABLE_RED = {**_JITABLE, "fastmath": {"reassoc", "nsz"}}
 #: the generic routines (:func:`.inverse.inverse`, :func:`.eigen.lmax`,
-#: :func:`.mass.dyn`) as the selector overloads compile them: cached like
-#: the routines they call (:func:`.digest.leaf`)
+#: :func:`.mass.dyn`, named with the digest where they are defined) as the
+#: selector overloads compile them: cached like the routines they call
+#: (:func:`.digest.leaf`)
 _CACHED = {**_JITABLE, "cache": True}
-for _f in (inverse, lmax, dyn):
-    keyed(_f)
 
 
 # ---------------------------------------------------------------------- the specialized tier

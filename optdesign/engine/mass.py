@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import uint64 as _u
 
-from .digest import leaf
+from .digest import keyed, leaf
 from .layout import BA, BLK, BS, BW, CT_ROLL, FRE, GDE, GGA
 
 __all__ = ["dyn"]
@@ -96,6 +96,7 @@ def _dyn_small(Lg, J, Kp, U, W, S, n, rods, m, om, oq, ov):
                 W[_u(ow + j)] = t
 
 
+@keyed
 def dyn(B, Lg, J, Kp, FRb, U, W, S, n, ct, rods, m, mass_only, sel):
     """W = U^T M_p (U from :func:`inverse`; upper triangular for n >= 4), or
     M_p itself (mass_only), without M_p stored: M_p = S^T B S + sum_i [gamma_i
