@@ -15,6 +15,13 @@ phi 28.70055 deg: max cond_F over W 999.0 against the limit 1000).
 ``--compare`` proves each design twice, with the preconditioned cond bound
 alone (before) and with the adjugate's (after, the default), and prints the
 ratios of boxes and seconds.
+
+    python benchmarks/bench_certify.py --base REV [--repeat 3] [--configs ...]
+
+proves each design with this tree's package and with revision REV's
+(extracted by git, as bench_evaluate_ab.py does), in alternation, best of
+--repeat, and prints the ratio of seconds and whether the two certificates
+are the same (every field but the seconds, bit for bit).
 """
 from __future__ import annotations
 
@@ -40,7 +47,11 @@ def main() -> None:
     ap.add_argument("--budget", type=int, default=None)
     ap.add_argument("--compare", action="store_true", help="before (preconditioned bound) and after (adjugate)")
     ap.add_argument("--configs", nargs="*", default=CONFIGS)
+    ap.add_argument("--base", default=None, help="an earlier revision to compare against (git rev)")
+    ap.add_argument("--repeat", type=int, default=3, help="with --base: best of this many proofs per side")
     args = ap.parse_args()
+    if args.base:
+        return against(args)
     head = f"{'config':<16} {'design':<10} {'status':<10} {'boxes':>7} {'cert s':>8} {'eval s':>8} {'ratio':>8}"
     if args.compare:
         head += f" {'before':<10} {'boxes':>7} {'cert s':>8} {'boxes x':>8} {'s x':>7}"
@@ -78,6 +89,56 @@ def main() -> None:
                 line += (f" {b['status']:<10} {b['boxes']:>7} {t_b:>8.3f} {c['boxes'] / b['boxes']:>8.3f} "
                          f"{t_cert / t_b:>7.2f}")
             print(line, flush=True)
+
+
+def against(args) -> None:
+    """This tree's certificates against revision ``args.base``'s, in alternation."""
+    import importlib
+    import os
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_evaluate_ab import _old_package
+
+    import optdesign
+
+    old = _old_package(args.base)
+    sides = {"this tree": optdesign, args.base: old}
+    print(f"certificates, this tree against {args.base}, best of {args.repeat} in alternation "
+          f"(load {os.getloadavg()[0]:.1f})")
+    print(f"{'config':<16} {'design':<10} {'status':<10} {'boxes':>7} {'this s':>8} {'base s':>8} {'ratio':>6}  same")
+    for name in args.configs:
+        cfg = load_config(ROOT / "configs" / f"{name}.yaml")
+        last = list(cfg.designs)[-1]
+        designs = {last: {}, **EXTRA.get(name, {})}
+        iso = [k for k, s in cfg.indices.items() if s.kind == "isotropy"]
+        conv = (cfg.indices[iso[0]].convention or "frobenius") if iso else "two_norm"
+        for label, extra in designs.items():
+            runs = {}
+            for side, pkg in sides.items():    # each side wholly its own package: config, mechanism, intervals
+                mod = lambda m, pkg=pkg: importlib.import_module(f"{pkg.__name__}.{m}")  # noqa: E731
+                c = mod("config").load_config(ROOT / "configs" / f"{name}.yaml")
+                ev, cd = mod("evaluate"), mod("certify.designs")
+                region = cd.region_of(ev.workspace_of(c))
+                free = int(np.sum(region["hi"] > region["lo"]))
+                budget = args.budget or budget_for(free, False)
+                mech = ev.build(c, {**c.design(last), **extra})
+                opt = c.optimizer
+                call = (lambda cd=cd, mech=mech, region=region, budget=budget, opt=opt: cd.certify_design(
+                    mech, region, opt.singularity_threshold, conv, opt.stroke_limits, budget=budget))
+                cd.certify_design(mech, region, opt.singularity_threshold, conv, opt.stroke_limits, budget=1)  # warm
+                runs[side] = [call, np.inf, None]
+            for _ in range(args.repeat):
+                for r in runs.values():
+                    t = time.perf_counter()
+                    r[2] = r[0]()
+                    r[1] = min(r[1], time.perf_counter() - t)
+            a, b = runs["this tree"], runs[args.base]
+            same = repr({k: v for k, v in a[2].items() if k != "seconds"}) == \
+                repr({k: v for k, v in b[2].items() if k != "seconds"})
+            print(f"{name:<16} {label:<10} {a[2]['status']:<10} {a[2]['boxes']:>7} {a[1]:>8.3f} {b[1]:>8.3f} "
+                  f"{a[1] / b[1]:>6.2f}  {'yes' if same else 'NO'}", flush=True)
+    print(f"(load {os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

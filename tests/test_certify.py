@@ -4,11 +4,38 @@ import numpy as np
 import pytest
 
 from optdesign.certify.bnb import branch_and_bound
-from optdesign.intervals.interval import Interval
+from optdesign.intervals.interval import Interval, _down, _up
 from optdesign.intervals.matrix import cond_fro_upper
 from optdesign.mechanisms.p4s.enclosure import P4SEnclosure
 from optdesign.linalg import cond_fro
 from optdesign.mechanisms import get
+
+
+def test_the_outward_rounding_is_numpys_nextafter_bit_for_bit():
+    """_up/_down step on the bits of a double (compiled, for large arrays);
+    numpy's nextafter (libm) is the reference: every special value,
+    subnormals, the largest doubles, and random bit patterns (NaN payloads
+    included), as arrays of several shapes and layouts and as 0-d arrays."""
+    import contextlib
+
+    from optdesign import fast
+    from optdesign.intervals.interval import _STEPS, COMPILED_FROM
+
+    f = np.finfo(float)
+    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, -np.nan, f.max, -f.max, f.tiny, -f.tiny,
+                        f.smallest_subnormal, -f.smallest_subnormal, 2 * f.smallest_subnormal, 1.0, -1.0,
+                        f.eps, -f.eps, 0.5, -0.5, 2.0 ** -1022 - 2.0 ** -1074])
+    bits = np.random.default_rng(7).integers(-2 ** 63, 2 ** 63 - 1, size=20000, dtype=np.int64, endpoint=True)
+    values = np.concatenate([special, bits.view(float), np.random.default_rng(8).normal(size=1000)])
+    for compiled in (True, False):      # the compiled steps (large arrays), numpy's own below COMPILED_FROM
+        with fast.disabled() if not compiled else contextlib.nullcontext():
+            for a in (values, values.reshape(-1, 4)[:, ::3], values[:1].reshape(()), values[:COMPILED_FROM]):
+                for ours, toward in ((_up, np.inf), (_down, -np.inf)):
+                    with np.errstate(all="ignore"):
+                        ref, got = np.nextafter(a, toward), ours(a)
+                    assert np.shape(got) == np.shape(ref)
+                    assert np.array_equal(np.asarray(got).view(np.int64), np.asarray(ref).view(np.int64))
+    assert _STEPS.module is not None, "the compiled steps were not used"
 
 
 def test_interval_operations_enclose_samples():

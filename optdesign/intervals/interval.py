@@ -3,7 +3,8 @@
 An :class:`Interval` holds two float arrays ``lo <= hi`` of one shape (a
 batch of boxes, legs, matrix entries ...).  Every operation computes its
 bounds in round-to-nearest IEEE arithmetic and then moves each bound one
-floating-point number outward (``np.nextafter``): +, -, *, / and sqrt are
+floating-point number outward (``np.nextafter``, compiled for large arrays:
+:mod:`._steps`): +, -, *, / and sqrt are
 correctly rounded in IEEE 754 (error <= 1/2 ulp), so one step outward
 encloses the exact result.  ``cos``/``sin`` of point values (the design's
 constants) are widened by 4 ulps, relying on the platform's libm being
@@ -13,18 +14,44 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fast import KernelModule, enabled
+
 __all__ = ["Interval", "point", "hull"]
 
 _INF = np.inf
 _F = np.dtype(float)
 
 
+#: the compiled rounding (:mod:`._steps`), used from this many elements on: below, numpy's
+#: nextafter costs less than the call (about 2.5 us against 4.8 ns an element, 1.1 compiled)
+COMPILED_FROM = 640
+_STEPS = KernelModule("optdesign.intervals._steps")
+
+
+def _compiled_step(a, toward: float, one: int):
+    """``np.nextafter(a, toward)`` for an array of at least COMPILED_FROM
+    elements: compiled where compiled paths may be used."""
+    if enabled():
+        mod = _STEPS.get()
+        if mod is not None:
+            a = np.asarray(a, dtype=float)
+            return mod.steps(np.ascontiguousarray(a).reshape(-1), one).reshape(a.shape)
+    return np.nextafter(a, toward)
+
+
 def _down(a):
-    return np.nextafter(a, -_INF)
+    """One double below ``a``: np.nextafter(a, -inf) bit for bit (interval
+    arithmetic rounds every bound of every operation)."""
+    if getattr(a, "size", 1) < COMPILED_FROM:
+        return np.nextafter(a, -_INF)
+    return _compiled_step(a, -_INF, -1)
 
 
 def _up(a):
-    return np.nextafter(a, _INF)
+    """One double above ``a``: np.nextafter(a, inf) bit for bit."""
+    if getattr(a, "size", 1) < COMPILED_FROM:
+        return np.nextafter(a, _INF)
+    return _compiled_step(a, _INF, 1)
 
 
 class Interval:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .interval import Interval, norm_upper
+from .interval import Interval, _down, _up, norm_upper
 
 __all__ = ["cond_fro_upper", "cond_2_upper", "cond_fro_upper_adjugate", "cond_2_upper_adjugate",
            "sigma_max_upper", "lambda_max_upper", "det_adjugate", "mid_matrix"]
@@ -23,14 +23,6 @@ __all__ = ["cond_fro_upper", "cond_2_upper", "cond_fro_upper_adjugate", "cond_2_
 def mid_matrix(J) -> np.ndarray:
     """(K, n, n) float midpoints of an interval matrix."""
     return np.stack([np.stack([e.mid for e in row], -1) for row in J], -2)
-
-
-def _down(a):
-    return np.nextafter(a, -np.inf)
-
-
-def _up(a):
-    return np.nextafter(a, np.inf)
 
 
 def _preconditioner(J):
