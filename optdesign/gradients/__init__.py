@@ -42,6 +42,7 @@ from .. import worstcase
 from ..evaluate import _COND, Evaluator
 from ..local_derivatives import local_derivative, solve as _solve
 from ..mechanisms import symbolic_model
+from .casadi_fn import ad_function as _ad_function, columns as _columns, mapped as _mapped, vec_columns as _vec_columns
 from .fd import ENVELOPE_STEP, FD_STEP, fd_derivatives, smooth_singularity  # noqa: F401  (re-exported)
 
 __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "smooth_singularity"]
@@ -86,58 +87,7 @@ class Derivatives:
     reason: str = ""
 
 
-# ---------------------------------------------------------------------- index derivatives
-# ---------------------------------------------------------------------- the CasADi route
-_FUNCTIONS: dict = {}
-
-
-def _ad_function(name: str, builder, free: tuple[str, ...]):
-    """The CasADi function (x, q, p) -> J, dJ/dp, dq/dp[, M_p, dM_p/dp] of a
-    mechanism for the free parameters ``free`` (cached per process), or None
-    when the model does not read every free parameter."""
-    key = (name, free)
-    if key in _FUNCTIONS:
-        return _FUNCTIONS[key]
-    import casadi as ca
-
-    model = builder()
-    fn = None
-    if set(free) <= set(model.param_names):
-        x, q = ca.SX.sym("x", model.dof), ca.SX.sym("q", model.n_act)
-        syms = {k: ca.SX.sym(k) for k in model.param_names}
-        P = ca.vertcat(*[syms[k] for k in model.param_names])
-        Pf = ca.vertcat(*[syms[k] for k in free])
-        f = model.closure_fn(x, q, syms)
-        fq = ca.jacobian(f, q)
-        J = -ca.solve(fq, ca.jacobian(f, x))
-        dq = -ca.solve(fq, ca.jacobian(f, Pf))
-
-        def total(A):
-            v = ca.vec(A)
-            return ca.jacobian(v, Pf) + ca.mtimes(ca.jacobian(v, q), dq)
-
-        outs = [J, total(J), dq]
-        if model.kinetic_fn is not None:
-            xd = ca.SX.sym("xd", model.dof)
-            T = model.kinetic_fn(x, q, xd, ca.mtimes(J, xd), syms)
-            Mp = ca.substitute(ca.jacobian(ca.gradient(T, xd), xd), xd, ca.DM.zeros(model.dof))
-            outs += [Mp, total(Mp)]
-        fn = (ca.Function(f"design_derivatives_{name}", [x, q, P], outs), model)
-    _FUNCTIONS[key] = fn
-    return fn
-
-
-def _columns(out, rows: int, n: int, cols: int) -> np.ndarray:
-    """A mapped CasADi output (rows, n * cols) -> (n, rows, cols)."""
-    return np.asarray(out, dtype=float).reshape(rows, n, cols).transpose(1, 0, 2)
-
-
-def _vec_columns(out, rows: int, cols: int, n: int, nf: int) -> np.ndarray:
-    """A mapped derivative of vec(A) (A rows x cols): (rows * cols, n * nf) -> (n, rows, cols, nf)."""
-    a = np.asarray(out, dtype=float).reshape(rows * cols, n, nf).transpose(1, 0, 2)
-    return a.reshape(n, cols, rows, nf).transpose(0, 2, 1, 3)
-
-
+# ---------------------------------------------------------------------- the CasADi route (its function: .casadi_fn)
 def _close(a, b) -> bool:
     ok = np.isfinite(a) & np.isfinite(b)
     if not ok.any():
@@ -184,7 +134,7 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
                    for k in model.param_names])
     n = D * N
     Xc = np.broadcast_to(X, (D, N, X.shape[1])).reshape(n, -1)
-    outs = fn.map(n)(Xc.T, np.nan_to_num(Q.reshape(n, -1)).T, pv)
+    outs = _mapped(fn, n)(Xc.T, np.nan_to_num(Q.reshape(n, -1)).T, pv)
     J = _columns(outs[0], model.n_act, n, model.dof)
     dJ = _vec_columns(outs[1], model.n_act, model.dof, n, nf)
     dQ = _columns(outs[2], model.n_act, n, nf)

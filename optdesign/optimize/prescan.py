@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import qmc
 
 from .polish import distinct_best, term_value
 from .refine import observed
@@ -32,6 +31,8 @@ def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.nda
     then the corners and the centre of the box when 2^n_var <= n / 8."""
     d = len(xl)
     m = max(0, math.ceil(math.log2(max(n, 1))))
+    from scipy.stats import qmc  # here: half a second of start-up a stage worker does not need
+
     U = qmc.Sobol(d=d, scramble=True, seed=seed).random_base2(m)
     if 2 ** d <= (2 ** m) // 8:
         corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T

@@ -1,0 +1,74 @@
+"""The CasADi function of the AD route (:mod:`optdesign.gradients`): the
+closure's Jacobian, its design derivatives and the mass matrix's, built once
+per mechanism and free variables, and evaluated over many poses as one mapped
+call."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["ad_function", "mapped", "columns", "vec_columns"]
+
+_FUNCTIONS: dict = {}
+
+
+def ad_function(name: str, builder, free: tuple[str, ...]):
+    """The CasADi function (x, q, p) -> J, dJ/dp, dq/dp[, M_p, dM_p/dp] of a
+    mechanism for the free parameters ``free`` (cached per process), or None
+    when the model does not read every free parameter."""
+    key = (name, free)
+    if key in _FUNCTIONS:
+        return _FUNCTIONS[key]
+    import casadi as ca
+
+    model = builder()
+    fn = None
+    if set(free) <= set(model.param_names):
+        x, q = ca.SX.sym("x", model.dof), ca.SX.sym("q", model.n_act)
+        syms = {k: ca.SX.sym(k) for k in model.param_names}
+        P = ca.vertcat(*[syms[k] for k in model.param_names])
+        Pf = ca.vertcat(*[syms[k] for k in free])
+        f = model.closure_fn(x, q, syms)
+        fq = ca.jacobian(f, q)
+        J = -ca.solve(fq, ca.jacobian(f, x))
+        dq = -ca.solve(fq, ca.jacobian(f, Pf))
+
+        def total(A):
+            v = ca.vec(A)
+            return ca.jacobian(v, Pf) + ca.mtimes(ca.jacobian(v, q), dq)
+
+        outs = [J, total(J), dq]
+        if model.kinetic_fn is not None:
+            xd = ca.SX.sym("xd", model.dof)
+            T = model.kinetic_fn(x, q, xd, ca.mtimes(J, xd), syms)
+            Mp = ca.substitute(ca.jacobian(ca.gradient(T, xd), xd), xd, ca.DM.zeros(model.dof))
+            outs += [Mp, total(Mp)]
+        fn = (ca.Function(f"design_derivatives_{name}", [x, q, P], outs), model)
+    _FUNCTIONS[key] = fn
+    return fn
+
+
+_MAPS: dict = {}
+
+
+def mapped(fn, n: int):
+    """``fn.map(n)``, built once per function and n (a polish asks for the
+    same n, its W's points, thousands of times; building the map cost about
+    a tenth of the call).  The last 32 are kept."""
+    key = (id(fn), n)
+    got = _MAPS.get(key)
+    if got is None:
+        if len(_MAPS) >= 32:
+            _MAPS.pop(next(iter(_MAPS)))
+        got = _MAPS[key] = (fn, fn.map(n))      # fn kept: its id stays its own
+    return got[1]
+
+
+def columns(out, rows: int, n: int, cols: int) -> np.ndarray:
+    """A mapped CasADi output (rows, n * cols) -> (n, rows, cols)."""
+    return np.asarray(out, dtype=float).reshape(rows, n, cols).transpose(1, 0, 2)
+
+
+def vec_columns(out, rows: int, cols: int, n: int, nf: int) -> np.ndarray:
+    """A mapped derivative of vec(A) (A rows x cols): (rows * cols, n * nf) -> (n, rows, cols, nf)."""
+    a = np.asarray(out, dtype=float).reshape(rows * cols, n, nf).transpose(1, 0, 2)
+    return a.reshape(n, cols, rows, nf).transpose(0, 2, 1, 3)
