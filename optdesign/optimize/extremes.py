@@ -62,7 +62,7 @@ def extremes_scan(xl: np.ndarray, xu: np.ndarray, n: int) -> np.ndarray:
     with seed 0, then the box's corners and centre when 4 x 2^n_var <= that."""
     d = len(xl)
     m = max(0, math.ceil(math.log2(max(n, 1))))
-    from scipy.stats import qmc  # here: half a second of start-up a stage worker does not need
+    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
 
     U = qmc.Sobol(d=d, scramble=True, seed=0).random_base2(m)
     if 4 * 2 ** d <= 2 ** m:
@@ -123,7 +123,7 @@ def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
         return [], []
     xl, w = evaluator.xl, evaluator.xu - evaluator.xl
     c = (best[0] - xl) / w
-    from scipy.stats import qmc  # here: half a second of start-up a stage worker does not need
+    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
 
     U = qmc.Sobol(d=len(c), scramble=True, seed=0).random_base2(int(math.log2(LOCAL_SCAN)))
     U = np.clip(c + LOCAL_WIDTH * (2.0 * U - 1.0), 0.0, 1.0)

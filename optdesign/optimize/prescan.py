@@ -31,7 +31,7 @@ def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.nda
     then the corners and the centre of the box when 2^n_var <= n / 8."""
     d = len(xl)
     m = max(0, math.ceil(math.log2(max(n, 1))))
-    from scipy.stats import qmc  # here: half a second of start-up a stage worker does not need
+    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
 
     U = qmc.Sobol(d=d, scramble=True, seed=seed).random_base2(m)
     if 2 ** d <= (2 ** m) // 8:
