@@ -27,9 +27,10 @@ def test_the_outward_rounding_is_numpys_nextafter_bit_for_bit():
                         f.eps, -f.eps, 0.5, -0.5, 2.0 ** -1022 - 2.0 ** -1074])
     bits = np.random.default_rng(7).integers(-2 ** 63, 2 ** 63 - 1, size=20000, dtype=np.int64, endpoint=True)
     values = np.concatenate([special, bits.view(float), np.random.default_rng(8).normal(size=1000)])
-    for compiled in (True, False):      # the compiled steps (large arrays), numpy's own below COMPILED_FROM
+    for compiled in (True, False):      # compiled paths on (large arrays stepped on the bits) and off
         with fast.disabled() if not compiled else contextlib.nullcontext():
-            for a in (values, values.reshape(-1, 4)[:, ::3], values[:1].reshape(()), values[:COMPILED_FROM]):
+            for a in (values, values.reshape(-1, 4)[:, ::3], values[:1].reshape(()), values[:COMPILED_FROM],
+                      values[:COMPILED_FROM - 1]):      # either side of the threshold
                 for ours, toward in ((_up, np.inf), (_down, -np.inf)):
                     with np.errstate(all="ignore"):
                         ref, got = np.nextafter(a, toward), ours(a)
