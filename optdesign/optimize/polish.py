@@ -36,12 +36,13 @@ import warnings
 
 import numpy as np
 from scipy.optimize import minimize, nnls
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from ..gradients import derivatives
 from .problem import normalized_terms
 
-__all__ = ["term_value", "distinct_best", "polish_designs", "polish_front_point", "optimality", "TOLERANCE", "ACTIVE"]
+__all__ = ["term_value", "distinct_best", "polish_designs", "polish_front_point", "optimality", "one_blas_thread",
+           "TOLERANCE", "ACTIVE"]
 
 #: the stated tolerance of the optimality measure (KKT residual of the scaled
 #: objective over max(1, its gradient norm), see :func:`optimality`)
@@ -127,12 +128,24 @@ def _finite(v) -> float:
     return v if np.isfinite(v) else 1e30
 
 
+_controller: list = []
+
+
+def one_blas_thread():
+    """A context with one BLAS thread.  The libraries are found once per
+    process (threadpoolctl's ``threadpool_limits`` looks them up again on every
+    entry, which cost more than a polish step's arithmetic)."""
+    if not _controller:
+        _controller.append(ThreadpoolController())
+    return _controller[0].limit(limits=1, user_api="blas")
+
+
 def _minimize(*args, **kwargs):
     """scipy.optimize.minimize with one BLAS thread: SLSQP's steps depend on
     the BLAS thread count in their last bits (a worker of a process pool runs
     with fewer threads than the main process), and the same seed must give
     the same files whatever runs it."""
-    with np.errstate(all="ignore"), warnings.catch_warnings(), threadpool_limits(limits=1, user_api="blas"):
+    with np.errstate(all="ignore"), warnings.catch_warnings(), one_blas_thread():
         warnings.simplefilter("ignore")
         return minimize(*args, **kwargs)
 
@@ -351,7 +364,7 @@ def optimality(problem, x: np.ndarray, names, route: str = "auto") -> dict:
                         "(impossible geometry next to it): no first-order measure"}
     if cols:
         A = np.stack(cols, axis=1)
-        with threadpool_limits(limits=1, user_api="blas"):
+        with one_blas_thread():
             _, res = nnls(A, g)
     else:
         res = float(np.linalg.norm(g))

@@ -28,10 +28,9 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import nnls
-from threadpoolctl import threadpool_limits
 
 from ..gradients import derivatives
-from .polish import MARGIN, _check, _objective, _Point
+from .polish import MARGIN, _check, _objective, _Point, one_blas_thread
 
 __all__ = ["walk", "walk_design"]
 
@@ -61,7 +60,7 @@ def _direction(g: np.ndarray, c: np.ndarray, J: np.ndarray, u: np.ndarray):
             + [-np.eye(n)[i] for i in np.flatnonzero(u >= 1.0 - BOUND)])
     if cols:
         B = np.stack(cols, axis=1)
-        with threadpool_limits(limits=1, user_api="blas"):
+        with one_blas_thread():
             lam, _ = nnls(B, g)
         d = B @ lam - g
     else:
