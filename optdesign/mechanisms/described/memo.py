@@ -52,7 +52,8 @@ def pack_key(mech) -> tuple:
         if len(shape) > 1:                  # not a packing's designs: the parameters as they are
             return params_key(mech)
         flat = {k: a[:, 0] if a.ndim == 2 else a for k, a in arrays.items()}     # (D, 1) or (1, 1) as (D,)
-        items = tuple((k, np.broadcast_to(a, shape).tobytes()) for k, a in sorted(flat.items()))
+        items = tuple((k, (a if a.shape == shape else np.broadcast_to(a, shape)).tobytes())
+                      for k, a in sorted(flat.items()))
         key = mech.__dict__["_pack_key"] = (type(mech).name, "pack", shape, items)
     return key
 
