@@ -8,12 +8,22 @@ they need them at import time, and take the fixtures otherwise.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# The suite writes Python's bytecode caches (__pycache__), as Python does by
+# default, also where the environment says not to (PYTHONDONTWRITEBYTECODE, set
+# in some containers): the suite starts about 120 Python processes (command
+# runs, stage and batch workers), each of which would otherwise compile every
+# module of optdesign from its source again, and each test worker would rewrite
+# the asserts of all test files again.  Set here, before the test workers start,
+# so that they and every process they start inherit it.
+sys.dont_write_bytecode = False
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 # Property-based tests draw the same cases on every run of the suite (a red
 # CI then always means the code changed), and new ones when asked:
