@@ -32,6 +32,7 @@ sum lambda_i grad c_i||`` over the active bounds and constraints (NNLS).
 """
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -128,16 +129,16 @@ def _finite(v) -> float:
     return v if np.isfinite(v) else 1e30
 
 
-_controller: list = []
+@functools.cache
+def _threadpools() -> ThreadpoolController:
+    return ThreadpoolController()
 
 
 def one_blas_thread():
     """A context with one BLAS thread.  The libraries are found once per
     process (threadpoolctl's ``threadpool_limits`` looks them up again on every
     entry, which cost more than a polish step's arithmetic)."""
-    if not _controller:
-        _controller.append(ThreadpoolController())
-    return _controller[0].limit(limits=1, user_api="blas")
+    return _threadpools().limit(limits=1, user_api="blas")
 
 
 def _minimize(*args, **kwargs):
