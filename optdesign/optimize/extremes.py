@@ -35,7 +35,7 @@ import numpy as np
 
 from .polish import TOLERANCE, distinct_best, optimality, polish_designs, term_value
 from .problem import DesignProblem, index_term
-from .prescan import evaluate_batches
+from .prescan import evaluate_batches, sobol
 from .refine import observed
 from .wall import walk_design
 
@@ -62,9 +62,7 @@ def extremes_scan(xl: np.ndarray, xu: np.ndarray, n: int) -> np.ndarray:
     with seed 0, then the box's corners and centre when 4 x 2^n_var <= that."""
     d = len(xl)
     m = max(0, math.ceil(math.log2(max(n, 1))))
-    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
-
-    U = qmc.Sobol(d=d, scramble=True, seed=0).random_base2(m)
+    U = sobol(d, m, 0)
     if 4 * 2 ** d <= 2 ** m:
         corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T
         U = np.concatenate([U, corners, np.full((1, d), 0.5)])
@@ -123,9 +121,7 @@ def _local_round(evaluator, term, ends: list) -> tuple[list, list]:
         return [], []
     xl, w = evaluator.xl, evaluator.xu - evaluator.xl
     c = (best[0] - xl) / w
-    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
-
-    U = qmc.Sobol(d=len(c), scramble=True, seed=0).random_base2(int(math.log2(LOCAL_SCAN)))
+    U = sobol(len(c), int(math.log2(LOCAL_SCAN)), 0)
     U = np.clip(c + LOCAL_WIDTH * (2.0 * U - 1.0), 0.0, 1.0)
     X = xl + w * U
     v, _, ok = evaluate_batches(evaluator, X)

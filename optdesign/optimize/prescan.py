@@ -20,10 +20,19 @@ import numpy as np
 from .polish import distinct_best, term_value
 from .refine import observed
 
-__all__ = ["prescan_designs", "run_prescan", "best_designs", "distinct_best", "BATCH", "evaluate_batches"]
+__all__ = ["prescan_designs", "run_prescan", "best_designs", "distinct_best", "BATCH", "evaluate_batches", "sobol"]
 
 #: designs per Evaluator call
 BATCH = 256
+
+
+def sobol(d: int, m: int, seed: int) -> np.ndarray:
+    """2^m points of the unit cube of dimension d: scipy.stats.qmc's scrambled
+    Sobol sequence with ``seed`` (imported here, at the first draw: importing
+    this module does not load scipy.stats)."""
+    from scipy.stats import qmc
+
+    return qmc.Sobol(d=d, scramble=True, seed=seed).random_base2(m)
 
 
 def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.ndarray:
@@ -31,9 +40,7 @@ def prescan_designs(xl: np.ndarray, xu: np.ndarray, n: int, seed: int) -> np.nda
     then the corners and the centre of the box when 2^n_var <= n / 8."""
     d = len(xl)
     m = max(0, math.ceil(math.log2(max(n, 1))))
-    from scipy.stats import qmc  # here, at the first draw: importing the module does not load scipy.stats
-
-    U = qmc.Sobol(d=d, scramble=True, seed=seed).random_base2(m)
+    U = sobol(d, m, seed)
     if 2 ** d <= (2 ** m) // 8:
         corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T
         U = np.concatenate([U, corners, np.full((1, d), 0.5)])
