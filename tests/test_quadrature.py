@@ -338,7 +338,7 @@ def test_paper_grid_is_bitwise_unchanged_and_errors_for_results(paper_reference)
 
 
 # ----------------------------------------------------------------------------- the weighted path
-@pytest.mark.skipif(not engine.KERNELS.available(), reason="numba kernels unavailable")
+@pytest.mark.skipif("not engine.KERNELS.available()", reason="numba kernels unavailable")   # at setup (test_p4s_compiled)
 def test_weighted_path_compiled_equals_numpy_and_unweighted(paper_config):
     rng = np.random.default_rng(3)
     designs = {"r_a": rng.uniform(0.21, 0.29, 6), "r_b": rng.uniform(0.63, 0.71, 6),
