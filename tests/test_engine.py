@@ -7,8 +7,10 @@ random, scaled, nearly singular and degenerate inputs; the kernel's digest of
 the files compiled into it; the engine's thread split and tier choice."""
 from __future__ import annotations
 
+import ast
 import math
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -194,6 +196,47 @@ mech = mechanism_class(cfg)(**cfg.parameters, **{k: dv.value for k, dv in cfg.de
 mech.global_statistics(index_requests(cfg, list(cfg.indices)), workspace_of(cfg).X[:300])
 print("INSIDE", sorted(set(inside)))
 """
+
+
+def _calls_at_import(tree):
+    """The calls a module makes as it is imported: its statements, with the
+    decorators and default values of its functions, not their bodies."""
+    out = []
+
+    def walk(node):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for n in node.decorator_list + node.args.defaults + node.args.kw_defaults:
+                if n is not None:
+                    walk(n)
+            return
+        if isinstance(node, ast.Lambda):
+            return
+        if isinstance(node, ast.Call):
+            out.append(node)
+        for child in ast.iter_child_nodes(node):
+            walk(child)
+
+    walk(tree)
+    return out
+
+
+def test_collecting_the_tests_loads_no_kernel_module():
+    """A kernel module's first load through optdesign.fast.KernelModule starts
+    the engine's first-compile helper (optdesign.engine.warmup) when nothing is
+    cached: done while collecting, every test worker of a fresh checkout
+    started one, compiling the same routines twice.  No test file calls
+    ``available()`` or ``get()`` of a kernel module (or ``kernel_module()``)
+    as it is imported; a skip condition on the kernels is a string, evaluated
+    as a test is set up."""
+    found = []
+    for path in sorted(Path(__file__).parent.glob("test_*.py")):
+        for call in _calls_at_import(ast.parse(path.read_text())):
+            f = call.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+            owner = ast.unparse(f.value) if isinstance(f, ast.Attribute) else ""
+            if name == "kernel_module" or (name in ("available", "get") and "KERNELS" in owner):
+                found.append(f"{path.name}:{call.lineno}: {ast.unparse(call)}")
+    assert not found, found
 
 
 @pytest.mark.slow

@@ -111,13 +111,14 @@ class Mechanism:
 
     def __init__(self, **params: Any):
         for k, v in list(params.items()):  # a switch may be given by its name
-            decl = type(self).param(k)
-            if decl is not None and decl.kind == "switch" and isinstance(v, str):
-                x, problem = decl.choice(v)
-                if problem:
-                    raise ValueError(f"{type(self).__name__}: {k}: {problem}")
-                params[k] = x
-        unknown = set(params) - set(self.design_parameters) - set(self.fixed_parameters)
+            if isinstance(v, str):
+                decl = type(self).param(k)
+                if decl is not None and decl.kind == "switch":
+                    x, problem = decl.choice(v)
+                    if problem:
+                        raise ValueError(f"{type(self).__name__}: {k}: {problem}")
+                    params[k] = x
+        unknown = set(params).difference(self.design_parameters, self.fixed_parameters)
         if unknown:
             raise TypeError(f"{type(self).__name__}: unknown parameter(s) {', '.join(sorted(unknown))}")
         values: dict[str, np.ndarray] = {}

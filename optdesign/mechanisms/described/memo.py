@@ -5,6 +5,8 @@ optimizer makes a new mechanism for every design it visits, and visits many
 twice: a polish's line search, the worst-case search per design)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["CONSTANTS", "PACKS", "PACK_DESIGNS", "pack_key", "params_key"]
@@ -52,8 +54,7 @@ def pack_key(mech) -> tuple:
         if len(shape) > 1:                  # not a packing's designs: the parameters as they are
             return params_key(mech)
         flat = {k: a[:, 0] if a.ndim == 2 else a for k, a in arrays.items()}     # (D, 1) or (1, 1) as (D,)
-        items = tuple((k, (a if a.shape == shape else np.broadcast_to(a, shape)).tobytes())
-                      for k, a in sorted(flat.items()))
+        items = tuple((k, _bytes_as(a, shape)) for k, a in sorted(flat.items()))
         key = mech.__dict__["_pack_key"] = (type(mech).name, "pack", shape, items)
     return key
 
@@ -69,3 +70,13 @@ def params_key(mech) -> tuple:
             items.append((k, a.shape, a.tobytes()))
         key = mech.__dict__["_params_key"] = (type(mech).name, tuple(items))
     return key
+
+
+def _bytes_as(a: np.ndarray, shape: tuple) -> bytes:
+    """The bytes of ``a`` broadcast to ``shape`` (a value given once: its bytes
+    repeated, as the broadcast array's are)."""
+    if a.shape == shape:
+        return a.tobytes()
+    if a.size == 1:
+        return a.tobytes() * math.prod(shape)
+    return np.broadcast_to(a, shape).tobytes()
