@@ -148,7 +148,7 @@ LONGEST_FIRST = (
     "test_interrupt.py",        # 78 s
     "test_runs.py",             # 67 s
     "test_dask.py",             # 35 s
-    "test_engine.py",           # 45 s: the specialized tier, a first compile from an empty cache
+    "test_engine.py",           # 25 s: the specialized tier of two shapes, compiled
     "test_report_html.py",      # 35 s
     "test_chain_compiled.py",   # 34 s
     "test_presentation.py",     # 31 s

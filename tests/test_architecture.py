@@ -45,13 +45,22 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
+def _tree(path: Path) -> ast.Module:
+    """The parsed source of a module of the package (parsed once per test
+    process: the tests here walk every module many times)."""
+    return _TREES.get(path) or _TREES.setdefault(path, ast.parse(path.read_text(), str(path)))
+
+
+_TREES: dict = {}
+
+
 def _imports(path: Path) -> set[str]:
     """Every optdesign module a file imports (relative imports resolved; for
     ``from X import y`` both X and X.y, since y may be a module)."""
     name = _module_name(path)
     pkg = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
     out: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(_tree(path)):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names if a.name.startswith("optdesign"))
         elif isinstance(node, ast.ImportFrom):
@@ -191,7 +200,7 @@ def _config_names(path: Path) -> set[str]:
     named ``cfg`` or ``config``, a variable ``cfg``, an attribute ``.cfg``
     (a variable ``config`` may be another library's, numba's)."""
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(_tree(path)):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
             a = node.args
             out.update(f"parameter {x.arg}" for x in a.posonlyargs + a.args + a.kwonlyargs + [a.vararg, a.kwarg]

@@ -175,29 +175,6 @@ def test_the_warm_up_compiles_the_signatures_the_kernel_asks_for(monkeypatch):
     assert set(K.combine.signatures) == {WC.COMBINE_TYPES}
 
 
-_COLD_COMPILE = """
-import sys
-from numba.core import event
-from optdesign.config import load_config
-from optdesign.evaluate import index_requests, mechanism_class, workspace_of
-depth, inside = [0], []
-class L(event.Listener):
-    def on_start(self, ev):
-        if depth[0] and ev.data["dispatcher"].py_func.__name__ != "run_tasks":
-            inside.append(ev.data["dispatcher"].py_func.__qualname__)
-        if ev.data["dispatcher"].py_func.__name__ == "run_tasks":
-            depth[0] += 1
-    def on_end(self, ev):
-        if ev.data["dispatcher"].py_func.__name__ == "run_tasks":
-            depth[0] -= 1
-event.register("numba:compile", L())
-cfg = load_config(sys.argv[1])
-mech = mechanism_class(cfg)(**cfg.parameters, **{k: dv.value for k, dv in cfg.design_variables.items()})
-mech.global_statistics(index_requests(cfg, list(cfg.indices)), workspace_of(cfg).X[:300])
-print("INSIDE", sorted(set(inside)))
-"""
-
-
 def _calls_at_import(tree):
     """The calls a module makes as it is imported: its statements, with the
     decorators and default values of its functions, not their bodies."""
@@ -239,27 +216,47 @@ def test_collecting_the_tests_loads_no_kernel_module():
     assert not found, found
 
 
-@pytest.mark.slow
-def test_the_first_compile_on_two_processes_leaves_the_kernel_nothing_to_compile(tmp_path):
-    """From an empty numba cache, the warm-up (a helper process and this one)
-    compiles every routine run_tasks links before run_tasks compiles: inside
-    run_tasks's compile numba compiles none of them (their signatures are the
-    kernel's), only numba's own small helpers if any."""
-    import os
-    import subprocess
-    import sys
+def _called_names(fn: ast.FunctionDef) -> set[str]:
+    """The plain names a function's body calls (not its decorators')."""
+    return {n.func.id for stmt in fn.body for n in ast.walk(stmt)
+            if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
 
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), OPTDESIGN_KERNEL="generic")
-    env.pop("OPTDESIGN_WARMUP", None)
-    p = subprocess.run([sys.executable, "-c", _COLD_COMPILE, str(__import__("conftest").CONFIGS / "delta.yaml")],
-                       env=env, capture_output=True, text=True, timeout=1200)
-    assert p.returncode == 0, p.stderr[-2000:]
-    (line,) = [x for x in p.stdout.splitlines() if x.startswith("INSIDE")]
-    inside = eval(line[len("INSIDE "):])  # noqa: S307 - a list of names this test printed
-    from optdesign.engine.digest import leaf_key
 
-    assert not [q for q in inside if q.endswith(leaf_key())], inside
-    assert list((tmp_path / "cache").rglob(f"eigen.lmax__{leaf_key()}-*.nbi")), "the helper's share is not cached"
+def test_the_warm_up_calls_every_routine_the_kernel_links():
+    """The engine's first compile on two processes (optdesign.engine.warmup)
+    compiles the routines run_tasks links before run_tasks compiles, through
+    the calls of warm_calls.here_calls and helper_calls: every routine the
+    kernel calls (itself or through its inlined helpers) is called there, and
+    nothing else is.  The arguments there are made as the kernel makes them,
+    so that the signatures agree: benchmarks/bench_engine.py (part 1) records
+    numba's compile events of a first compile from an empty cache, where
+    run_tasks's own compile must compile none of them (it takes about 20
+    CPU-s, a benchmark's time)."""
+    import builtins
+
+    from optdesign.engine import kernels, warm_calls
+
+    def defs(module):
+        return {f.name: f for f in ast.parse(Path(module.__file__).read_text()).body
+                if isinstance(f, ast.FunctionDef)}
+
+    kern = defs(kernels)
+    inline = {name for name, f in kern.items() if any("inline" in ast.unparse(d) for d in f.decorator_list)}
+    assert {"_block", "tail_j", "tail_w", "tail_codes"} <= inline
+    seen, linked, todo = set(), set(), ["run_tasks"]
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            for callee in _called_names(kern[name]):
+                if callee in inline:
+                    todo.append(callee)
+                elif not hasattr(builtins, callee):
+                    linked.add(callee)
+    warm = defs(warm_calls)
+    called = {c for f in ("here_calls", "helper_calls") for c in _called_names(warm[f]) if not hasattr(builtins, c)}
+    assert linked == called, (sorted(linked - called), sorted(called - linked))
+    assert {"legs", "inverse_sel", "lmax_sel", "dyn_sel", "_chunk_stats"} <= linked
 
 
 def test_the_routines_cache_files_carry_the_digest_of_their_sources():
