@@ -7,6 +7,7 @@ they need them at import time, and take the fixtures otherwise.
 """
 from __future__ import annotations
 
+import functools
 import os
 import sys
 from pathlib import Path
@@ -46,6 +47,17 @@ BATCH_SMALL = DATA / "batch_small.yaml"
 #: same task, whatever the backend or the number of workers
 SAME_FIELDS = ("config", "config_key", "run_key", "seed", "status", "objective", "opt_r_a", "opt_r_b", "opt_phi",
                "dynamic", "stiffness", "isotropy", "evaluations")
+
+
+@functools.cache
+def shipped_optimizations() -> tuple[Path, ...]:
+    """The shipped configs with free design variables (configs/, the batch
+    file excepted), sorted: parsed once per test process (several test files
+    parametrize over them as they are collected)."""
+    from optdesign.config import load_config
+
+    return tuple(sorted(p for p in CONFIGS.glob("*.yaml")
+                        if p.name != "batch_example.yaml" and load_config(p).free_variables))
 
 
 def load_paper_config():

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from conftest import CONFIGS
+from conftest import shipped_optimizations
 
-from optdesign.config import load_config, parse_config
+from optdesign.config import parse_config
 from optdesign.runner import run_in_folder
 from optdesign.runs import RunFolder
 
@@ -26,7 +26,7 @@ def _small(text: str) -> str:
     return yaml.safe_dump(raw)
 
 
-SHIPPED = sorted(p for p in CONFIGS.glob("*.yaml") if p.name != "batch_example.yaml" and load_config(p).free_variables)
+SHIPPED = list(shipped_optimizations())
 
 
 @pytest.mark.slow

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import CONFIGS, DATA, PAPER, edited_text
+from conftest import DATA, PAPER, edited_text, shipped_optimizations
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.algorithms.moo.nsga3 import NSGA3
 from pymoo.algorithms.soo.nonconvex.de import DE
@@ -29,8 +29,7 @@ ALG = {"paper_ga": GA, "pymoo_ga": GA, "de": DE}
 def _plan(cfg):
     """The plan of a config's run: its optimizer section and its indices' senses (what the runner hands down)."""
     return stage_plan(cfg.optimizer, {k: s.sense for k, s in cfg.indices.items()})
-OPTIMIZATION_CONFIGS = sorted(p for p in CONFIGS.glob("*.yaml")
-                              if p.name != "batch_example.yaml" and load_config(p).free_variables)
+OPTIMIZATION_CONFIGS = list(shipped_optimizations())
 
 
 def test_the_paper_plan():
