@@ -55,6 +55,7 @@ if _is_entry_process():
             pass
 
 import argparse  # noqa: E402 - after the signal handlers: the imports below take seconds on a busy machine
+import functools  # noqa: E402
 import importlib  # noqa: E402
 import pkgutil  # noqa: E402
 
@@ -197,6 +198,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@functools.cache
+def _parser() -> argparse.ArgumentParser:
+    """The command line's parser, built once per process (building it imports
+    and registers every command: about 5 ms, which a caller running many
+    commands in-process, as the test suite does thousands of times, paid on
+    every call).  Parsing does not change it: a parse keeps only the
+    arguments it was given, for its error messages."""
+    return build_parser()
+
+
 def _error(message: str) -> int:
     print(f"optdesign: error: {_one_line(message, 2000)}", file=sys.stderr)
     return 2
@@ -235,7 +246,7 @@ def _main(argv: list[str] | None) -> int:
     from .workspace import WorkspaceTooLarge
 
     _tolerant_output()
-    parser = build_parser()
+    parser = _parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:      # --help, --version (0) or a usage error (2, already reported)

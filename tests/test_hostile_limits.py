@@ -3,6 +3,7 @@ given (step, points_per_axis, cylinder, random points), and on points x
 designs per evaluation call, checked before anything is allocated."""
 from __future__ import annotations
 
+import copy
 import math
 import time
 import tracemalloc
@@ -19,6 +20,8 @@ from optdesign.evaluate import Evaluator, evaluate
 from optdesign.workspace import MAX_POINTS, WorkspaceTooLarge, sample
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])
+#: tests/data/p4s_small.yaml, read once (each example takes a fresh copy)
+_SMALL = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
 #: a config of each pose kind: lengths (p4s 3 axes, cpr_rrr 2), angles (sps_s), plain numbers (ups_upr_s)
 BASES = {name: yaml.safe_load((CONFIGS / name).read_text())
          for name in ("p4s_paper.yaml", "cpr_rrr.yaml", "sps_s.yaml", "ups_upr_s.yaml")}
@@ -84,7 +87,7 @@ def test_one_limit_on_workspace_points():
     def check(case):
         cases()
         name, ws = case
-        data = yaml.safe_load(yamlsafe.dump(BASES[name]))
+        data = copy.deepcopy(BASES[name])
         data["workspace"] = ws
         text = yamlsafe.dump(data, sort_keys=False)
         scale = math.pi / 180 if ws.get("unit") == "deg" else 1.0
@@ -146,7 +149,7 @@ def test_points_times_population_before_a_run():
            ppop=st.sampled_from([4, 60, 5000, 100_000]), pareto=st.booleans())
     def check(step, pop, ppop, pareto):
         cases()
-        data = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+        data = copy.deepcopy(_SMALL)
         data["workspace"]["step"] = step
         data["optimizer"].update(population=pop, elites=2)
         data["optimizer"]["pareto"]["population"] = ppop

@@ -34,6 +34,8 @@ mean of the local derivatives at a design whose points are all reachable.
 """
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +51,13 @@ __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "sm
 
 #: relative agreement the CasADi matrices must have with the mechanism's own
 CHECK_RTOL = 1e-8
+#: answers of :func:`derivatives` kept per Evaluator (the last ones asked for):
+#: SLSQP, its restarts, the optimality measure and the walk ask again for
+#: designs they had (a sixth of the calls of a run's polish, measured on the
+#: Python API page's run); the answer is a function of (X, route,
+#: values_only) alone, so a repeat gets the same object
+MEMO = 64
+_MEMOS: "weakref.WeakKeyDictionary[Evaluator, OrderedDict]" = weakref.WeakKeyDictionary()
 
 
 @dataclass
@@ -358,6 +367,21 @@ def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values
     ``route="fd"``.  ``values_only``: the same values without derivatives
     (grads with no column), on the route named (``auto`` counts as ``ad``)."""
     X = np.atleast_2d(np.asarray(X, dtype=float))
+    memo = _MEMOS.get(evaluator)
+    if memo is None:
+        memo = _MEMOS[evaluator] = OrderedDict()
+    key = (X.shape, np.ascontiguousarray(X).tobytes(), route, bool(values_only))
+    got = memo.get(key)
+    if got is None:
+        got = memo[key] = _derivatives(evaluator, X, route, values_only)
+        if len(memo) > MEMO:
+            memo.popitem(last=False)
+    else:
+        memo.move_to_end(key)
+    return got
+
+
+def _derivatives(evaluator: Evaluator, X: np.ndarray, route: str, values_only: bool) -> Derivatives:
     if route != "fd":
         got = _ad(evaluator, X, values_only)
         if not isinstance(got, str):
