@@ -201,3 +201,36 @@ def test_values_only_keep_the_numpy_path_where_the_compiled_one_does_not_apply()
     evd = Evaluator.from_config(d, workspace_of(d))
     assert _compiled_values(evd, (0.5 * (evd.xl + evd.xu))[None]) is None
     assert derivatives(evd, (0.5 * (evd.xl + evd.xu))[None], "auto", values_only=True).route == "fd"
+
+
+def test_a_repeated_request_is_answered_from_the_memo_and_a_changed_setting_is_not():
+    """derivatives keeps its last answers per Evaluator: the same design, route
+    and values_only give the same object (SLSQP and the optimality measure ask
+    again); the compiled paths switched off, a changed constraint setting or
+    another design compute afresh, and equal what a fresh Evaluator gives."""
+    from optdesign import fast
+    from optdesign import gradients
+    from optdesign.evaluate import workspace_of
+
+    cfg = load_config(CONFIGS / "p4s_paper.yaml")
+    ev = Evaluator.from_config(cfg, workspace_of(cfg))
+    x = (0.5 * (ev.xl + ev.xu))[None]
+    a = derivatives(ev, x, "auto", values_only=True)
+    assert derivatives(ev, x.copy(), "auto", values_only=True) is a
+    full = derivatives(ev, x, "auto")
+    assert full is not a and full.grads[next(iter(full.grads))].shape[-1] == len(ev.free)
+    with fast.disabled():
+        b = derivatives(ev, x, "auto", values_only=True)
+    assert b is not a
+    ev.stroke_limits = (-1.0, 1.0)
+    c = derivatives(ev, x, "auto", values_only=True)
+    assert c is not a and "stroke_high" in c.constraints
+    y = x + 1e-3 * (ev.xu - ev.xl)
+    d = derivatives(ev, y, "auto", values_only=True)
+    fresh = derivatives(Evaluator.from_config(cfg, workspace_of(cfg)), y, "auto", values_only=True)
+    for k in fresh.values:
+        assert np.array_equal(d.values[k], fresh.values[k])
+    # bounded: the oldest answers leave
+    for i in range(gradients.MEMO + 5):
+        derivatives(ev, x + i * 1e-6 * (ev.xu - ev.xl), "auto", values_only=True)
+    assert len(gradients._MEMOS[ev]) == gradients.MEMO

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import worstcase
+from .. import fast, worstcase
 from ..evaluate import _COND, Evaluator
 from ..local_derivatives import local_derivative, solve as _solve
 from ..mechanisms import symbolic_model
@@ -53,10 +53,13 @@ __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "sm
 CHECK_RTOL = 1e-8
 #: answers of :func:`derivatives` kept per Evaluator (the last ones asked for):
 #: SLSQP, its restarts, the optimality measure and the walk ask again for
-#: designs they had (a sixth of the calls of a run's polish, measured on the
-#: Python API page's run); the answer is a function of (X, route,
-#: values_only) alone, so a repeat gets the same object
+#: designs they had (14 % of the calls of the Python API page's run, measured);
+#: the answer is a function of (X, route, values_only), the compiled paths'
+#: switch and the Evaluator's constraint settings, all in the key, so a repeat
+#: gets the same object
 MEMO = 64
+#: the Evaluator's settings a derivative depends on, besides the design (part of the memo's key)
+_SETTINGS = ("stroke_limits", "worst_case", "worst_case_method", "limit", "threshold", "margin")
 _MEMOS: "weakref.WeakKeyDictionary[Evaluator, OrderedDict]" = weakref.WeakKeyDictionary()
 
 
@@ -370,7 +373,8 @@ def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values
     memo = _MEMOS.get(evaluator)
     if memo is None:
         memo = _MEMOS[evaluator] = OrderedDict()
-    key = (X.shape, np.ascontiguousarray(X).tobytes(), route, bool(values_only))
+    key = (X.shape, np.ascontiguousarray(X).tobytes(), route, bool(values_only), fast.enabled(),
+           *(getattr(evaluator, k, None) for k in _SETTINGS))
     got = memo.get(key)
     if got is None:
         got = memo[key] = _derivatives(evaluator, X, route, values_only)
