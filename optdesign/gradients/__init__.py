@@ -53,7 +53,8 @@ __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "sm
 CHECK_RTOL = 1e-8
 #: answers of :func:`derivatives` kept per Evaluator (the last ones asked for):
 #: SLSQP, its restarts, the optimality measure and the walk ask again for
-#: designs they had (14 % of the calls of the Python API page's run, measured);
+#: designs they had (14 % of the calls of two runs each of the Python API page's
+#: config and a small Delta, measured);
 #: the answer is a function of (X, route, values_only), the compiled paths'
 #: switch and the Evaluator's constraint settings, all in the key, so a repeat
 #: gets the same object
@@ -368,7 +369,9 @@ def derivatives(evaluator: Evaluator, X: np.ndarray, route: str = "auto", values
     designs X (D, n_free): the AD route where the mechanism has one
     (``route="auto"`` or ``"ad"``), central differences otherwise or with
     ``route="fd"``.  ``values_only``: the same values without derivatives
-    (grads with no column), on the route named (``auto`` counts as ``ad``)."""
+    (grads with no column), on the route named (``auto`` counts as ``ad``).
+    A request repeated while it is among the :data:`MEMO` last of this
+    Evaluator gets the same answer object back: read it, do not change it."""
     X = np.atleast_2d(np.asarray(X, dtype=float))
     memo = _MEMOS.get(evaluator)
     if memo is None:
