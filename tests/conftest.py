@@ -60,6 +60,21 @@ def shipped_optimizations() -> tuple[Path, ...]:
                         if p.name != "batch_example.yaml" and load_config(p).free_variables))
 
 
+@functools.cache
+def _small_data() -> dict:
+    import yaml
+
+    return yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+
+
+def small_data() -> dict:
+    """tests/data/p4s_small.yaml as plain data, a fresh copy on each call
+    (parsed once per test process: the hostile tests take one per example)."""
+    import copy
+
+    return copy.deepcopy(_small_data())
+
+
 def load_paper_config():
     """The paper's config, parsed (a new object on each call)."""
     from optdesign.config import load_config

@@ -13,15 +13,13 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from conftest import CONFIGS, DATA
+from conftest import CONFIGS, DATA, small_data
 from hostile_helpers import Cases, files_under, run_case, sandbox
 from optdesign.config import ConfigError, load_config, parse_config, yamlsafe
 from optdesign.evaluate import Evaluator, evaluate
 from optdesign.workspace import MAX_POINTS, WorkspaceTooLarge, sample
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])
-#: tests/data/p4s_small.yaml, read once (each example takes a fresh copy)
-_SMALL = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
 #: a config of each pose kind: lengths (p4s 3 axes, cpr_rrr 2), angles (sps_s), plain numbers (ups_upr_s)
 BASES = {name: yaml.safe_load((CONFIGS / name).read_text())
          for name in ("p4s_paper.yaml", "cpr_rrr.yaml", "sps_s.yaml", "ups_upr_s.yaml")}
@@ -149,7 +147,7 @@ def test_points_times_population_before_a_run():
            ppop=st.sampled_from([4, 60, 5000, 100_000]), pareto=st.booleans())
     def check(step, pop, ppop, pareto):
         cases()
-        data = copy.deepcopy(_SMALL)
+        data = small_data()
         data["workspace"]["step"] = step
         data["optimizer"].update(population=pop, elites=2)
         data["optimizer"]["pareto"]["population"] = ppop
@@ -206,7 +204,7 @@ LIMIT_CASES = [
 @pytest.mark.parametrize("label", [c[0] for c in LIMIT_CASES])
 def test_limits_through_the_commands(label, command):
     _, edits, key = next(c for c in LIMIT_CASES if c[0] == label)
-    data = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+    data = small_data()
     ws = data["workspace"]
     if "step" in edits or "sampling" in edits or label.startswith("points_per_axis") and "step and" not in label:
         ws.pop("step")

@@ -5,24 +5,20 @@ long a path; symbolic links planted where a command will write.  Nothing
 may ever be written outside the chosen root; see tests/hostile_helpers.py."""
 from __future__ import annotations
 
-import copy
 import os
 import string
 from pathlib import Path
 
 import pytest
-import yaml
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from conftest import BATCH_SMALL, CONFIGS, DATA
+from conftest import BATCH_SMALL, CONFIGS, DATA, small_data
 from hostile_helpers import Cases, files_under, run_case, sandbox
 from optdesign.batch import plan
 from optdesign.config import yamlsafe
 from optdesign.names import MAX_NAME, name_problem
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])
-#: tests/data/p4s_small.yaml, read once (each example takes a fresh copy)
-_SMALL = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
 _SAFE = set(string.ascii_letters + string.digits + "._-")
 _SPECIAL = ["..", ".", "../x", "/etc/passwd", "a/b", "a\\b", "-rf", ".hidden", "a..b", "x" * MAX_NAME,
             "x" * (MAX_NAME + 1), "", " ", "a b", "tab\there", "new\nline", "nul\x00", "\ud800", "\udcff",
@@ -59,7 +55,7 @@ def test_the_name_rule(tmp_path):
 
 
 def _config(name_slot: str, name: str) -> dict:
-    data = copy.deepcopy(_SMALL)
+    data = small_data()
     data.pop("reference")
     if name_slot == "config name":
         data["name"] = name

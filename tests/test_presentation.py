@@ -19,6 +19,7 @@ import pytest
 import yaml
 
 from cli_helpers import run_cli_in
+from conftest import small_data
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data"
@@ -27,7 +28,7 @@ PLAIN = {"generation", "evaluations", "feasible", "front_size", "reachable"}
 
 
 def _noref_config(folder: Path) -> Path:
-    d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+    d = small_data()
     d.pop("reference")
     d["name"] = "noref"
     p = folder / "noref.yaml"

@@ -16,6 +16,7 @@ import pytest
 import yaml
 
 from cli_helpers import run_cli_in
+from conftest import small_data
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data"
@@ -47,7 +48,7 @@ def two_objective_run(tmp_path_factory):
     from optdesign.config import load_config
     from optdesign.runner import start_run
 
-    d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+    d = small_data()
     d.pop("reference")
     d["name"] = "two_objectives"
     d["indices"] = {"dynamic": {}, "stiffness": {}}
@@ -228,7 +229,7 @@ def test_atlas_clipped_to_the_cylinder_and_finer_than_the_sample():
     from optdesign.evaluate import DesignModel, evaluate
     from optdesign.report.html.atlas import atlas_map
 
-    d = yaml.safe_load((DATA / "p4s_small.yaml").read_text())
+    d = small_data()
     d["workspace"] = {"type": "cylinder", "radius": 0.04, "axes": {"z": 0.57}, "sampling": "sobol", "points": 8192,
                       "seed": 5}
     cfg = parse_config(yaml.safe_dump(d))
