@@ -25,13 +25,6 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # so that they and every process they start inherit it.
 sys.dont_write_bytecode = False
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
-# Two test workers share the two cores: each process of the suite (the workers
-# and the runs they start) gets one BLAS thread, as a run's stage workers and
-# joblib's workers do, instead of two per process whose idle threads spin
-# against the other worker (3-4 % of the suite's CPU, measured).  Results do
-# not depend on it: tests/test_determinism.py runs with 1 and 2 threads, set
-# explicitly, and compares the files byte for byte.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 # Property-based tests draw the same cases on every run of the suite (a red
 # CI then always means the code changed), and new ones when asked:

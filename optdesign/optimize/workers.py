@@ -7,7 +7,7 @@
   exit status is the one the manifest gives.  A stage worker also stops when
   the main process writes the stop file or is gone.
 * :class:`StagePool` — ``jobs - 1`` spawned worker processes (compiled kernels
-  and BLAS on one thread each, as the main process while they run) that run stages handed to them; they ignore Ctrl-C while
+  on one thread each) that run stages handed to them; they ignore Ctrl-C while
   idle, stop at a generation boundary when asked, and end themselves when the
   main process disappears (even a SIGKILLed one).
 """
@@ -111,20 +111,6 @@ def set_kernel_threads(n: int | None) -> int | None:
     return old
 
 
-def one_blas_thread():
-    """BLAS on one thread in this process until the returned limiter's
-    ``restore_original_limits()`` (None where threadpoolctl cannot tell): the
-    processes of a run share the cores, each with one thread, as the compiled
-    kernels do.  Results do not depend on it (SLSQP's steps, which do, always
-    run on one BLAS thread: :func:`optdesign.optimize.polish.one_blas_thread`)."""
-    try:
-        from threadpoolctl import threadpool_limits
-
-        return threadpool_limits(limits=1, user_api="blas")
-    except Exception:  # noqa: BLE001 - speed only
-        return None
-
-
 def warm_kernels(evaluate_once: Callable[[], object]) -> None:
     """One evaluation: loads (on a fresh installation: compiles and caches) the
     compiled kernels before the workers start, so that they load them from the
@@ -173,7 +159,6 @@ def _worker_init(parent: int, events=None) -> None:
     # task installs a StopRequest)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     set_kernel_threads(1)
-    one_blas_thread()
     # the parent's pid comes from the parent: it may have died while this
     # worker was starting, and os.getppid() would then already name another process
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
@@ -217,7 +202,6 @@ class StagePool:
         self.running: dict = {}
         self.pool = None
         self.threads = None
-        self.blas = None
         self.events = None   # the workers' progress reports (``events``: wanted)
         if self.workers:
             import multiprocessing as mp
@@ -226,7 +210,6 @@ class StagePool:
             ctx = mp.get_context("spawn")
             self.events = ctx.Queue() if events else None
             self.threads = set_kernel_threads(1)
-            self.blas = one_blas_thread()
             self.pool = ProcessPoolExecutor(self.workers, mp_context=ctx,
                                             initializer=_worker_init, initargs=(os.getpid(), self.events))
             for _ in range(self.workers):  # start the workers (their imports) now
@@ -306,9 +289,6 @@ class StagePool:
             self.events = None
         if self.threads is not None:
             set_kernel_threads(self.threads)
-        if self.blas is not None:
-            self.blas.restore_original_limits()
-            self.blas = None
         try:
             self.stop_file.unlink()
         except FileNotFoundError:
