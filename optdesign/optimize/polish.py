@@ -232,8 +232,7 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
             u0 = (x - xl) / width
             res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter), meet if ends else None)
             nit += int(res.nit)
-            x1 = _feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
-            f1 = float(_check(problem, x1)[0][0])
+            x1, f1 = _feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
             better = f1 < f - 1e-15 * max(abs(f), 1e-300)
             if better:
                 x, f = x1, f1
@@ -249,17 +248,24 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
 
 
 def _feasible_end(problem, x0, x1, steps: int = 30):
-    """x1 if the Evaluator finds it feasible, else the feasible point nearest
-    x1 on the segment from the feasible x0 (bisection)."""
-    _, ok, _ = _check(problem, x1)
+    """(x, its objective value): x1 if the Evaluator finds it feasible, else
+    the feasible point nearest x1 on the segment from the feasible x0
+    (bisection).  The value is the Evaluator's, from the check that found x
+    feasible (x0's own when no point of the segment was)."""
+    f, ok, _ = _check(problem, x1)
     if ok[0]:
-        return x1
+        return x1, float(f[0])
     a, b = 0.0, 1.0     # x0 + a (x1 - x0) feasible, + b not
+    fa = None           # the value at x0 + a (x1 - x0), once a point of the segment was feasible
     for _ in range(steps):
         m = 0.5 * (a + b)
-        _, ok, _ = _check(problem, x0 + m * (x1 - x0))
-        a, b = (m, b) if ok[0] else (a, m)
-    return x0 + a * (x1 - x0)
+        f, ok, _ = _check(problem, x0 + m * (x1 - x0))
+        if ok[0]:
+            a, fa = m, float(f[0])
+        else:
+            b = m
+    x = x0 + a * (x1 - x0)
+    return x, (fa if fa is not None else float(_check(problem, x)[0][0]))
 
 
 def polish_front_point(problem, x0: np.ndarray, r: np.ndarray, maxiter: int = 100, route: str = "auto"):
