@@ -228,6 +228,10 @@ def _tolerant_output() -> None:
 def main(argv: list[str] | None = None) -> int:
     """The command; ``argv`` None: this process is the command (its signal
     handlers are the command's, see :func:`_early_signal`)."""
+    if argv is None:        # this process is the command: its collector's settings are ours
+        from .process import tune_collector
+
+        tune_collector()
     if argv is None and signal.getsignal(signal.SIGTERM) is _early_signal:
         _IN_MAIN[0] = True
         if signal.getsignal(signal.SIGINT) is _early_signal:

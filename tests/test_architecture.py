@@ -156,8 +156,10 @@ def test_nothing_imports_the_cli():
     # the optimizer knows design vectors and objective values (handed plain pieces, no config); the run
     # folder is where it writes
     ("optdesign.optimize", ("optdesign.evaluate", "optdesign.gradients", "optdesign.workspace",
-                            "optdesign.certify", "optdesign.runs", "optdesign.units")),
+                            "optdesign.certify", "optdesign.runs", "optdesign.units", "optdesign.process")),
     ("optdesign.runs", ()),
+    # the settings of optdesign's own processes (the command's, a stage worker's): the standard library only
+    ("optdesign.process", ()),
     # the reports read a run folder's plain data (and evaluate designs for the atlases and the pictures)
     ("optdesign.report", ("optdesign.config", "optdesign.evaluate", "optdesign.workspace", "optdesign.runs",
                           "optdesign.units")),

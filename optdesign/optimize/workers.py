@@ -159,6 +159,9 @@ def _worker_init(parent: int, events=None) -> None:
     # task installs a StopRequest)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     set_kernel_threads(1)
+    from ..process import tune_collector
+
+    tune_collector()        # before the stage's imports (the evaluator's unpickling)
     # the parent's pid comes from the parent: it may have died while this
     # worker was starting, and os.getppid() would then already name another process
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
