@@ -8,8 +8,8 @@ thousands of objects, all of them surviving) and then runs an optimizer that
 creates many short-lived objects, so the collector runs thousands of times
 and its older generations, scanned whole, hold every imported object.  With
 the youngest generation examined every :data:`GC_THRESHOLD` allocations a
-short run (``optdesign run tests/data/p4s_tiny.yaml``) takes about a tenth
-less CPU (docs/performance.md).  The results do not depend on it: the
+short run (``optdesign run`` of the tests' small configs) takes 6-10 % less
+CPU (docs/performance.md).  The results do not depend on it: the
 collector frees unreachable objects only.
 """
 from __future__ import annotations

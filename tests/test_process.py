@@ -44,10 +44,10 @@ def test_the_command_process_tunes_its_collector_and_an_in_process_call_does_not
     assert int(p.stderr.strip().splitlines()[-1]) == GC_THRESHOLD
 
 
-def test_a_stage_worker_tunes_its_collector(tmp_path):
-    from concurrent.futures import ProcessPoolExecutor
+def test_a_stage_worker_tunes_its_collector():
     import multiprocessing as mp
     import os
+    from concurrent.futures import ProcessPoolExecutor
 
     from optdesign.optimize.workers import _worker_init
 
