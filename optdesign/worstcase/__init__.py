@@ -211,7 +211,10 @@ def worst_poses(mechanism: type, fixed: Mapping[str, float], designs: Mapping[st
     where the gradient polish adds the constraint at the worst pose (by the
     envelope theorem the derivative of the maximum over W is the partial
     derivative there).  With ``limit``: refined as :func:`worst_over_w`
-    refines it (the same pose the Evaluator's constraint comes from).  With
+    refines it (the same pose the Evaluator's constraint comes from, up to
+    twice the limit: that search ends a start there, this one climbs on to
+    the hill's maximum; ending it there too changed the runs' results and
+    saved no time, docs/performance.md).  With
     ``hills``: (D, k, dof) the local maximum of every hill the search
     climbed (:func:`maximize`), NaN for a design it skipped."""
     fs = local_functions(mechanism, fixed, designs, request.kind, request.convention)
