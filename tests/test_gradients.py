@@ -184,6 +184,38 @@ def test_values_only_from_the_compiled_path_equal_the_numpy_matrices_to_round_of
     assert sum(hills) > 0          # climbed hills compared too, not only W's points
 
 
+def test_the_rows_at_the_hills_of_one_design_take_its_own_mechanism_with_the_same_bits():
+    """A polish step asks for one design: the rows at its hills are computed
+    on the mechanism already built for its workspace points
+    (``_hill_constraints(..., mech)``) instead of a new one of the same
+    parameters, which costs a construction and the engine's packing per
+    step.  Both ways give the same bits, on the compiled values and on the
+    numpy matrices with CasADi's derivatives, at random designs of the
+    paper's box with the worst case over W on."""
+    from optdesign.evaluate import workspace_of
+    from optdesign.gradients import _COND, _compiled_local, _hill_constraints, _numpy_local
+
+    cfg = load_config(CONFIGS / "p4s_paper.yaml")
+    ev = Evaluator.from_config(cfg, workspace_of(cfg))
+    req = next(r for r in ev.requests_all if r.name == (ev._cond if ev._cond is not None else _COND))
+    limit = getattr(ev, "limit", ev.threshold)
+    rng = np.random.default_rng(11)
+    climbed = 0
+    for x in ev.xl + (ev.xu - ev.xl) * rng.random((4, len(ev.xl))):
+        designs = ev.designs(x[None])
+        mech = ev.mechanism(**{**ev.fixed, **{k: v[:, None] for k, v in designs.items()}})
+        vals, reach = mech.local_values([req], ev.workspace.X)
+        sampled = np.where(np.asarray(reach, bool), np.asarray(vals[req.name], float), np.inf)
+        hills = worstcase.worst_poses(ev.mechanism, ev.fixed, designs, ev.workspace, req, sampled, limit, hills=True)
+        for local, n in ((_compiled_local(req), 0), (_numpy_local(ev, req, False), len(ev.free))):
+            a = _hill_constraints(ev, designs, hills, limit, n, local, mech)
+            b = _hill_constraints(ev, designs, hills, limit, n, local)
+            for u, v in zip(a, b):
+                assert u.tobytes() == v.tobytes()
+        climbed += int(np.sum(a[0] > -10.0))
+    assert climbed > 0            # rows at climbed hills compared, not only inactive ones
+
+
 def test_values_only_keep_the_numpy_path_where_the_compiled_one_does_not_apply():
     """Stroke limits (constraints on the actuators, which the compiled values
     do not give) and a mechanism without an AD route (a described one, whose

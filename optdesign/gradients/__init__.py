@@ -212,7 +212,8 @@ def _extra(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
     return out, grads
 
 
-def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, limit: float, n: int, local):
+def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, limit: float, n: int, local,
+                      mech=None):
     """The AD route's constraints ``log(cond / limit)`` (D, k) and their
     derivatives (D, k, n) at the local maximum of each hill of W the search
     climbed (``hills`` (D, k, dof)), largest first: where the largest moves
@@ -221,7 +222,8 @@ def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, li
     violation (1); a hill not climbed an inactive row (-10, no derivative).
     ``local(mechanism, design, poses)`` gives cond at the poses (K,), whether
     each is reachable (K,) and cond's derivative (K, n), or None when it
-    cannot answer (then None)."""
+    cannot answer (then None).  ``mech``: the mechanism of ``designs``,
+    taken for the design itself where there is one design (a polish step)."""
     D, k, _ = hills.shape
     c, g = np.full((D, k), -10.0), np.zeros((D, k, n))
     for i in range(D):
@@ -229,7 +231,8 @@ def _hill_constraints(evaluator: Evaluator, designs: dict, hills: np.ndarray, li
         if not on.size:
             continue
         di = {key: v[i:i + 1] for key, v in designs.items()}
-        mi = evaluator.mechanism(**{**evaluator.fixed, **{key: v[:, None] for key, v in di.items()}})
+        mi = mech if D == 1 and mech is not None else \
+            evaluator.mechanism(**{**evaluator.fixed, **{key: v[:, None] for key, v in di.items()}})
         got = local(mi, di, hills[i][on])
         if got is None:
             return None
@@ -300,7 +303,7 @@ def _compiled_values(evaluator: Evaluator, X: np.ndarray):
         req = next(r for r in evaluator.requests_all if r.name == name)
         hills = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
                                       np.where(ok, local[name], np.inf), limit, hills=True)
-        got = _hill_constraints(evaluator, designs, hills, limit, 0, _compiled_local(req))
+        got = _hill_constraints(evaluator, designs, hills, limit, 0, _compiled_local(req), mech)
         if got is None:
             return None
         cons = np.concatenate([cons, got[0]], axis=1)
@@ -344,7 +347,7 @@ def _ad(evaluator: Evaluator, X: np.ndarray, values_only: bool = False):
         hills = worstcase.worst_poses(evaluator.mechanism, evaluator.fixed, designs, evaluator.workspace, req,
                                       np.where(ok, local[name], np.inf), limit, hills=True)
         c, g = _hill_constraints(evaluator, designs, hills, limit, cgrads["singularity"].shape[-1],
-                                 _numpy_local(evaluator, req, values_only))
+                                 _numpy_local(evaluator, req, values_only), mech)
         cons["singularity"] = np.concatenate([cons["singularity"], c], axis=1)
         cgrads["singularity"] = np.concatenate([cgrads["singularity"], g], axis=1)
     if evaluator.stroke_limits is not None:
