@@ -189,8 +189,8 @@ def test_a_two_dimensional_workspace_is_a_surface_of_the_local_index():
     run = RunData.of(Path("."), {}, {"optimum": d}, cfg)
     fig = workspace_figure(run, d)
     surf = fig.data[0]
-    assert surf.type == "surface" and len(fig.data) == len(cfg.indices)
-    gx, gy, Z = np.asarray(surf.x, float), np.asarray(surf.y, float), np.asarray(surf.z, float)
+    assert surf["type"] == "surface" and len(fig.data) == len(cfg.indices)
+    gx, gy, Z = np.asarray(surf["x"], float), np.asarray(surf["y"], float), np.asarray(surf["z"], float)
     # at the optimization's own sample points (on the surface's grid) the height is the local index there
     ws = workspace_of(cfg)
     ev = evaluate(cfg, [d], ws, keep_local=True)

@@ -129,13 +129,13 @@ def test_compare_legends_one_entry_per_line_below_the_plot(two_runs):
     fronts, _ = _fronts_figure(runs, labels)
     conv = _convergence_figure(runs, labels)
     for fig in (fronts, conv):
-        lg = fig.layout.legend
+        lg = fig.layout["legend"]
         # side by side (orientation h, fixed entry widths) the long names overlapped and were cut
-        assert lg.orientation == "v" and lg.entrywidth is None
-        assert lg.yref == "container" and lg.yanchor == "bottom" and lg.y == 0
-        n = sum(1 for d in fig.data if d.showlegend is not False)
-        assert fig.layout.margin.b >= LEGEND_ROW * n + 40   # room for every entry under the axes' titles
-    assert conv.layout.yaxis.type == "log"                 # best f falls towards 0
+        assert lg["orientation"] == "v" and "entrywidth" not in lg
+        assert lg["yref"] == "container" and lg["yanchor"] == "bottom" and lg["y"] == 0
+        n = sum(1 for d in fig.data if d.get("showlegend") is not False)
+        assert fig.layout["margin"]["b"] >= LEGEND_ROW * n + 40   # room for every entry under the axes' titles
+    assert conv.layout["yaxis"]["type"] == "log"                 # best f falls towards 0
 
 
 def test_figure_titles_sit_below_the_plotly_toolbar(two_runs):
@@ -143,13 +143,13 @@ def test_figure_titles_sit_below_the_plotly_toolbar(two_runs):
     from optdesign.report.html.page import MODEBAR_PX, Page
 
     fig, _ = _fronts_figure(*two_runs)
-    top, height = fig.layout.margin.t, fig.layout.height
+    top, height = fig.layout["margin"]["t"], fig.layout["height"]
     Page("t").figure(fig)
-    t = fig.layout.title
-    assert t.yref == "container" and t.yanchor == "top" and t.y == 1.0 and t.pad.t >= MODEBAR_PX >= 30
-    assert fig.layout.margin.t == top + MODEBAR_PX and fig.layout.height == height + MODEBAR_PX
+    t = fig.layout["title"]
+    assert t["yref"] == "container" and t["yanchor"] == "top" and t["y"] == 1.0 and t["pad"]["t"] >= MODEBAR_PX >= 30
+    assert fig.layout["margin"]["t"] == top + MODEBAR_PX and fig.layout["height"] == height + MODEBAR_PX
     Page("t").figure(fig)                                  # once only
-    assert fig.layout.margin.t == top + MODEBAR_PX
+    assert fig.layout["margin"]["t"] == top + MODEBAR_PX
 
 
 def test_convergence_with_positive_round_off_is_symlog_so_the_best_line_is_drawn():

@@ -264,6 +264,66 @@ def test_atlas_of_a_3d_workspace_is_a_named_centre_slice():
     assert len(m.coords[0]) == 31 > cfg.workspace.points_per_axis
 
 
+# --------------------------------------------------------------------------- the figures' JSON
+def _same_as_plotly(fig) -> None:
+    """plotly's own figure object, built from fig's traces, layout and frames
+    (every property checked, a named colour scale spelled out, a number array
+    kept as an array), gives the page the same JSON as fig itself."""
+    import plotly.graph_objects as go
+    from plotly.io.json import to_json_plotly
+
+    theirs = go.Figure(dict(data=fig.data, layout=fig.layout, frames=fig.frames or [])).to_dict()
+    ours = fig.to_dict()
+    for part in ("data", "layout", "frames"):
+        assert json.loads(to_json_plotly(ours.get(part, []))) == json.loads(to_json_plotly(theirs.get(part, []))), part
+
+
+def test_every_figure_of_the_pages_is_what_plotly_makes_of_it(noref_run, two_objective_run, repro_copy, monkeypatch):
+    """The reports and the comparison page build their figures as plain data
+    (optdesign.report.html.plot); each is the figure plotly's checked objects
+    make of it, so no property is misspelt (plotly refuses one it does not
+    know) or in a form plotly.js does not read."""
+    from optdesign.report.html import page as page_mod
+    from optdesign.report.html.compare import build_compare
+    from optdesign.report.html.report import build_report, load_run
+
+    got = []
+    real = page_mod.Page.figure
+    monkeypatch.setattr(page_mod.Page, "figure", lambda self, fig, cls="fig": (got.append(fig), real(self, fig, cls))[1])
+    runs = [load_run(f) for f in (noref_run, two_objective_run, repro_copy)]
+    for run in runs:
+        build_report(run)
+    build_compare(runs)
+    kinds = {t["type"] for f in got for t in f.data}
+    assert {"scatter", "splom", "parcoords", "scatter3d", "mesh3d", "surface", "contour"} <= kinds, kinds
+    assert any(f.frames for f in got)
+    for fig in got:
+        _same_as_plotly(fig)
+
+
+@pytest.mark.parametrize("name", ["delta_opt.yaml", "gough_stewart_opt.yaml", "cpr_rrr_opt.yaml", "upu3_opt.yaml"])
+def test_the_views_of_other_mechanisms_are_what_plotly_makes_of_them(name):
+    """The same for the 3-D drawing, the workspace view and the atlases of
+    mechanisms with other workspaces (3-D, 6-D, planar, a chain)."""
+    from optdesign.config import load_config
+    from optdesign.evaluate import DesignModel
+    from optdesign.report.html.atlas import atlas_map
+    from optdesign.report.html.figures import atlas_figures
+    from optdesign.report.html.rundata import RunData
+    from optdesign.report.html.views import mechanism_figure, workspace_figure
+
+    cfg = load_config(ROOT / "configs" / name)
+    d = cfg.initial_design()
+    run = RunData.of(Path("."), {}, {"optimum": d}, cfg)
+    figs = [mechanism_figure(run, d, "t"), workspace_figure(run, d)]
+    amap = atlas_map(DesignModel.from_config(cfg), cfg.units(), cfg.workspace, d, 21)
+    figs += atlas_figures(run, amap) if amap is not None else []
+    assert sum(f is not None for f in figs) >= 2
+    for fig in figs:
+        if fig is not None:
+            _same_as_plotly(fig)
+
+
 # --------------------------------------------------------------------------- commands
 def test_report_command_and_folders_that_are_not_finished_runs(noref_run, tmp_path):
     done = tmp_path / "done"

@@ -7,12 +7,12 @@ import os
 from pathlib import Path
 
 import numpy as np
-import plotly.graph_objects as go
 
 from ...io import atomic_write_text
 from .figures import (COLORS, MARKS, TEMPLATE, _front_values, design_points, esc, fmt, hover_lines, matrix_trace,
                       style_matrix)
 from .page import Page
+from .plot import Figure
 from ...runs import RunFolderError
 from .rundata import RunData, load_run
 from .tables import html_table, objective_text
@@ -25,16 +25,16 @@ __all__ = ["build_compare", "write_compare_html"]
 LEGEND_ROW = 20
 
 
-def legend_below(fig: go.Figure, axis_room: int) -> go.Figure:
+def legend_below(fig: Figure, axis_room: int) -> Figure:
     """The legend under the plot, one entry per line: entries side by side
     overlap one another and are clipped at the figure's edge once run names
     are long.  The bottom margin (``axis_room``: the axes' titles) and the
     height grow by the legend's height, so the plot keeps its size."""
-    n = sum(1 for d in fig.data if d.showlegend is not False)
+    n = sum(1 for d in fig.data if d.get("showlegend") is not False)
     room = LEGEND_ROW * n + 12
     fig.update_layout(legend=dict(orientation="v", yref="container", y=0, yanchor="bottom", x=0, xanchor="left",
                                   font=dict(size=11), tracegroupgap=0),
-                      margin=dict(b=axis_room + room), height=int(fig.layout.height or 450) + room)
+                      margin=dict(b=axis_room + room), height=int(fig.layout.get("height") or 450) + room)
     return fig
 
 
@@ -101,7 +101,7 @@ def _senses(runs, k) -> str:
     return esc("/".join(sorted(s)))
 
 
-def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | None, str]:
+def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[Figure | None, str]:
     fronts = [(lab, r, f) for lab, r in zip(labels, runs) for f in r.fronts.values() if f.size]
     if not fronts:
         return None, "No run has a Pareto front."
@@ -110,7 +110,7 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
     common = [o for o in common if len(units[o]) == 1]
     if len(common) < 2:
         return None, "The runs' fronts share fewer than two objectives (with the same unit): nothing to overlay."
-    fig = go.Figure()
+    fig = Figure()
     r0 = fronts[0][1]
     dims_label = {o: esc(index_label(r0.units, o)) for o in common}
     dims = [dims_label[o] for o in common]
@@ -146,16 +146,16 @@ def _fronts_figure(runs: list[RunData], labels: list[str]) -> tuple[go.Figure | 
     return fig, note
 
 
-def _convergence_figure(runs, labels) -> go.Figure | None:
-    fig = go.Figure()
+def _convergence_figure(runs, labels) -> Figure | None:
+    fig = Figure()
     for j, (lab, r) in enumerate(zip(labels, runs)):
         rows = r.history.get("weighted_sum")
         if not rows:
             continue
         g = np.array([x.get("generation", np.nan) for x in rows], float)
         b = np.array([x.get("best_objective", np.nan) for x in rows], float)
-        fig.add_trace(go.Scatter(x=g, y=b, mode="lines", name=esc(lab), line=dict(color=COLORS[j % len(COLORS)]),
-                                 hovertemplate="generation %{x}<br>best f %{y:.5g}<extra>" + esc(lab) + "</extra>"))
+        fig.add_trace(dict(type="scatter", x=g, y=b, mode="lines", name=esc(lab), line=dict(color=COLORS[j % len(COLORS)]),
+                           hovertemplate="generation %{x}<br>best f %{y:.5g}<extra>" + esc(lab) + "</extra>"))
     if not fig.data:
         return None
     fig.update_layout(template=TEMPLATE, height=420,
@@ -163,13 +163,13 @@ def _convergence_figure(runs, labels) -> go.Figure | None:
                                       "normalization)", x=0.01),
                       margin=dict(t=80))
     legend_below(fig, 60)
-    fig.update_xaxes(title_text="generation")
-    ys = np.concatenate([np.asarray(d.y, float) for d in fig.data])
+    fig.update_xaxes(title=dict(text="generation"))
+    ys = np.concatenate([np.asarray(d["y"], float) for d in fig.data])
     ys = ys[np.isfinite(ys)]
     if len(ys) and np.all(ys > 0):   # f falls by decades towards 0: a linear axis shows it flat at 0
-        fig.update_yaxes(title_text="f [–], log scale", type="log")
+        fig.update_yaxes(title=dict(text="f [–], log scale"), type="log")
     else:
-        fig.update_yaxes(title_text="f [–]")
+        fig.update_yaxes(title=dict(text="f [–]"))
     return fig
 
 

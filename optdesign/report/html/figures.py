@@ -9,10 +9,9 @@ import html
 import math
 
 import numpy as np
-import plotly.graph_objects as go
-from plotly.subplots import make_subplots
 
 from .atlas import AtlasMap
+from .plot import Figure, colorscale, subplots
 from .rundata import Front, RunData
 from ...units import DIMENSIONLESS, index_label, label, objective_unit, variable_unit
 
@@ -20,7 +19,7 @@ __all__ = ["TEMPLATE", "fmt", "matrix_trace", "style_matrix", "convergence_figur
            "front_parcoords", "atlas_figures", "design_points", "hover_lines", "objective_sense"]
 
 #: a light template of our own (plotly's built-in ones add kilobytes to every figure)
-TEMPLATE = go.layout.Template(layout=dict(
+TEMPLATE = dict(layout=dict(
     font=dict(family="system-ui, -apple-system, 'Segoe UI', Roboto, Helvetica, Arial, sans-serif", size=12,
               color="#222"),
     paper_bgcolor="white", plot_bgcolor="white",
@@ -32,7 +31,7 @@ TEMPLATE = go.layout.Template(layout=dict(
     hoverlabel=dict(align="left"),
     margin=dict(l=70, r=30, t=70, b=60),
 ))
-COLORS = TEMPLATE.layout.colorway
+COLORS = TEMPLATE["layout"]["colorway"]
 #: markers of the weighted-sum optimum and of the config's named designs
 MARKS = ["diamond", "square", "triangle-up", "cross", "triangle-down", "pentagon"]
 
@@ -136,7 +135,7 @@ def _col(rows: list[dict], key: str) -> np.ndarray:
     return np.array([r.get(key, math.nan) for r in rows], dtype=float)
 
 
-def convergence_figures(run: RunData) -> list[go.Figure]:
+def convergence_figures(run: RunData) -> list[Figure]:
     """One grid of small plots for the single-objective and weighted-sum
     stages (best and population mean per generation), one figure per Pareto
     stage (the best of each objective and the size of the front)."""
@@ -154,8 +153,8 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                 titles.append("weighted sum, every term as if minimized")
             else:
                 titles.append("weighted sum (the optimum)")
-        fig = make_subplots(rows=nrow, cols=ncol, subplot_titles=titles, horizontal_spacing=0.1,
-                            vertical_spacing=min(0.12, 0.6 / max(nrow - 1, 1)) if nrow > 1 else 0.1)
+        fig = subplots(nrow, ncol, titles, horizontal_spacing=0.1,
+                       vertical_spacing=min(0.12, 0.6 / max(nrow - 1, 1)) if nrow > 1 else 0.1)
         for i, s in enumerate(ga):
             r, rows = run.stages[s], run.history[s]
             row, col = i // ncol + 1, i % ncol + 1
@@ -173,16 +172,17 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
             else:
                 best, mean = _col(rows, "best_objective"), _col(rows, "mean_objective")
                 ylab = "f [–]"
-            fig.add_trace(go.Scatter(x=g, y=best, mode="lines", name="best", legendgroup="best",
-                                     line=dict(color=COLORS[0]), showlegend=i == 0,
-                                     hovertemplate="generation %{x}<br>best %{y:.5g}<extra>" + esc(s) + "</extra>"),
+            fig.add_trace(dict(type="scatter", x=g, y=best, mode="lines", name="best", legendgroup="best",
+                               line=dict(color=COLORS[0]), showlegend=i == 0,
+                               hovertemplate="generation %{x}<br>best %{y:.5g}<extra>" + esc(s) + "</extra>"),
                           row=row, col=col)
-            fig.add_trace(go.Scatter(x=g, y=mean, mode="lines", name="population mean", legendgroup="mean",
-                                     line=dict(color=COLORS[1], dash="dot"), showlegend=i == 0,
-                                     hovertemplate="generation %{x}<br>mean %{y:.5g}<extra>" + esc(s) + "</extra>"),
+            fig.add_trace(dict(type="scatter", x=g, y=mean, mode="lines", name="population mean", legendgroup="mean",
+                               line=dict(color=COLORS[1], dash="dot"), showlegend=i == 0,
+                               hovertemplate="generation %{x}<br>mean %{y:.5g}<extra>" + esc(s) + "</extra>"),
                           row=row, col=col)
-            fig.update_yaxes(title_text=esc(ylab), row=row, col=col)
-            fig.update_xaxes(title_text="generation" if row == nrow or i + ncol >= len(ga) else None, row=row, col=col)
+            fig.update_yaxes(title=dict(text=esc(ylab)), row=row, col=col)
+            if row == nrow or i + ncol >= len(ga):
+                fig.update_xaxes(title=dict(text="generation"), row=row, col=col)
         height = 260 * nrow + 130
         fig.update_layout(template=TEMPLATE, height=height,
                           title=dict(text="Convergence of the single-objective and weighted-sum stages", x=0.01,
@@ -190,7 +190,7 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                           legend=dict(orientation="h", yref="container", y=1 - 52 / height, yanchor="top",
                                       x=0.01, xanchor="left"),
                           margin=dict(t=120))
-        fig.update_annotations(font_size=12)
+        fig.update_annotations(font=dict(size=12))
         figs.append(fig)
     for s, rows in run.history.items():
         r = run.stages.get(s, {})
@@ -201,8 +201,7 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
         ncol = min(n, 4)
         nrow = -(-n // ncol)
         titles = [f"best {esc(t.lstrip('-'))}" for t in terms] + ["non-dominated designs"]
-        fig = make_subplots(rows=nrow, cols=ncol, subplot_titles=titles, horizontal_spacing=0.1,
-                            vertical_spacing=0.18 if nrow > 1 else 0.1)
+        fig = subplots(nrow, ncol, titles, horizontal_spacing=0.1, vertical_spacing=0.18 if nrow > 1 else 0.1)
         g = _col(rows, "generation")
         for i, t in enumerate(terms + [None]):
             row, col = i // ncol + 1, i % ncol + 1
@@ -215,14 +214,15 @@ def convergence_figures(run: RunData) -> list[go.Figure]:
                 else:                        # own sense, shown units
                     y = _col(rows, f"best_{k}")
                 ylab = index_label(run.units, k)
-            fig.add_trace(go.Scatter(x=g, y=y, mode="lines", showlegend=False, line=dict(color=COLORS[i % len(COLORS)]),
-                                     hovertemplate="generation %{x}<br>%{y:.5g}<extra></extra>"), row=row, col=col)
-            fig.update_yaxes(title_text=esc(ylab), row=row, col=col)
-            fig.update_xaxes(title_text="generation", row=row, col=col)
+            fig.add_trace(dict(type="scatter", x=g, y=y, mode="lines", showlegend=False,
+                               line=dict(color=COLORS[i % len(COLORS)]),
+                               hovertemplate="generation %{x}<br>%{y:.5g}<extra></extra>"), row=row, col=col)
+            fig.update_yaxes(title=dict(text=esc(ylab)), row=row, col=col)
+            fig.update_xaxes(title=dict(text="generation"), row=row, col=col)
         fig.update_layout(template=TEMPLATE, height=280 * nrow + 90,
                           title=dict(text=f"Convergence of {esc(s)}: the best of each objective per generation, "
                                           "and the number of non-dominated designs", x=0.01))
-        fig.update_annotations(font_size=12)
+        fig.update_annotations(font=dict(size=12))
         figs.append(fig)
     return figs
 
@@ -232,17 +232,17 @@ def matrix_trace(labels: list[str], columns: list, **kw):
     """A scatter matrix (lower half) of ``columns``; for two columns, one plain
     scatter (plotly.js cannot draw a one-panel lower-half matrix)."""
     if len(columns) == 2:
-        return go.Scatter(x=columns[0], y=columns[1], mode="markers", **kw)
-    return go.Splom(dimensions=[dict(label=lab, values=c) for lab, c in zip(labels, columns)],
-                    showupperhalf=False, diagonal_visible=False, **kw)
+        return dict(type="scatter", x=columns[0], y=columns[1], mode="markers", **kw)
+    return dict(type="splom", dimensions=[dict(label=lab, values=c) for lab, c in zip(labels, columns)],
+                showupperhalf=False, diagonal=dict(visible=False), **kw)
 
 
-def style_matrix(fig: go.Figure, labels: list[str]) -> None:
+def style_matrix(fig: Figure, labels: list[str]) -> None:
     """Axes of a scatter matrix: plain (no mirrored frame) on shaded panels."""
     n = len(labels)
     if n == 2:
-        fig.update_xaxes(title_text=labels[0])
-        fig.update_yaxes(title_text=labels[1])
+        fig.update_xaxes(title=dict(text=labels[0]))
+        fig.update_yaxes(title=dict(text=labels[1]))
     else:
         for i in range(1, n + 1):
             ax = dict(showline=False, mirror=False, zeroline=False, gridcolor="white", automargin=True)
@@ -257,7 +257,7 @@ def front_title(front: Front) -> str:
     return f"{esc(front.name)}: {front.size} non-dominated designs"
 
 
-def front_splom(run: RunData, front: Front) -> go.Figure:
+def front_splom(run: RunData, front: Front) -> Figure:
     """The front in objective space (own sense, units), one point per design;
     hover shows its parameters and indices.  The weighted-sum optimum and the
     named designs are drawn for comparison."""
@@ -266,7 +266,7 @@ def front_splom(run: RunData, front: Front) -> go.Figure:
     text = [hover_lines(run, front.designs, vals, i, f"{front.name} design {i + 1}") for i in range(front.size)]
     big = front.size <= 3
     labels = [_obj_label(run, o, short=True) for o in objs]
-    fig = go.Figure()
+    fig = Figure()
     fig.add_trace(matrix_trace(labels, [vals[o] for o in objs], text=text, hovertemplate="%{text}<extra></extra>",
                                name=f"{front.name} front",
                                marker=dict(size=15 if big else 6, color=COLORS[0], opacity=0.9 if big else 0.7,
@@ -288,7 +288,7 @@ def front_splom(run: RunData, front: Front) -> go.Figure:
     return fig
 
 
-def front_parcoords(run: RunData, front: Front) -> go.Figure:
+def front_parcoords(run: RunData, front: Front) -> Figure:
     """Parallel coordinates of the front: its free design variables (config
     units, axes spanning the bounds) and objectives (own sense, axes spanning the
     front's own range; for a single design, the index's range over the bounds)."""
@@ -314,15 +314,14 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
         dims.append(d)
     color_by = next(iter(front.objectives), None)
     if color_by and front.size > 1:
-        line = dict(color=vals[color_by], colorscale="Viridis", showscale=True,
+        line = dict(color=vals[color_by], colorscale=colorscale("Viridis"), showscale=True,
                     colorbar=dict(title=dict(text=_obj_label(run, color_by, short=True), side="right"),
                                   thickness=14, x=1.02))
     else:
         line = dict(color=COLORS[0])
-    fig = go.Figure(go.Parcoords(
-        dimensions=dims,
-        line=line,
-        labelangle=0 if len(dims) <= 8 else -25, labelside="top", labelfont=dict(size=12), tickfont=dict(size=11)))
+    fig = Figure([dict(
+        type="parcoords", dimensions=dims, line=line,
+        labelangle=0 if len(dims) <= 8 else -25, labelside="top", labelfont=dict(size=12), tickfont=dict(size=11))])
     one = " (one design: a single line; objective axes span the range over the bounds)" if front.size == 1 else ""
     fig.update_layout(template=TEMPLATE, height=470,
                       title=dict(text=f"{esc(front.name)}: the front's designs (left, config units; axes span the bounds) "
@@ -333,7 +332,7 @@ def front_parcoords(run: RunData, front: Front) -> go.Figure:
 
 
 # --------------------------------------------------------------------------- atlas
-def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted-sum optimum") -> list[go.Figure]:
+def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted-sum optimum") -> list[Figure]:
     figs = []
     where = "; ".join(w for w in (amap.held, (f"slice through the centre: {amap.cut}" if amap.cut else "")) if w)
     for k, Z in amap.values.items():
@@ -342,20 +341,21 @@ def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted
         title = f"{esc(k)} ({'max' if sense == 'max' else 'min'}) of {esc(design_name)}"
         sub = esc(where) if where else ""
         if len(amap.axes) == 1:
-            fig = go.Figure(go.Scatter(x=amap.coords[0], y=Z, mode="lines", name=esc(k),
-                                       hovertemplate=f"{esc(amap.axes[0])} = %{{x:.4g}} {esc(amap.units[0])}<br>"
-                                                     f"{esc(k)} = %{{y:.5g}}<extra></extra>"))
-            fig.update_xaxes(title_text=esc(label(amap.axes[0], amap.units[0])))
-            fig.update_yaxes(title_text=esc(ul))
+            fig = Figure([dict(type="scatter", x=amap.coords[0], y=Z, mode="lines", name=esc(k),
+                               hovertemplate=f"{esc(amap.axes[0])} = %{{x:.4g}} {esc(amap.units[0])}<br>"
+                                             f"{esc(k)} = %{{y:.5g}}<extra></extra>")])
+            fig.update_xaxes(title=dict(text=esc(label(amap.axes[0], amap.units[0]))))
+            fig.update_yaxes(title=dict(text=esc(ul)))
         else:
             xa, ya = amap.axes
             ux, uy = amap.units
             finite = np.isfinite(Z)
-            fig = go.Figure()
+            fig = Figure()
             if finite.sum() >= 4:
                 lo, hi = float(np.nanmin(Z)), float(np.nanmax(Z))
-                fig.add_trace(go.Contour(
-                    x=amap.coords[0], y=amap.coords[1], z=Z, colorscale="Viridis", connectgaps=False, ncontours=18,
+                fig.add_trace(dict(
+                    type="contour", x=amap.coords[0], y=amap.coords[1], z=Z, colorscale=colorscale("Viridis"),
+                    connectgaps=False, ncontours=18,
                     contours=dict(coloring="heatmap", showlabels=True, labelfont=dict(size=10, color="white")),
                     line=dict(width=0.6, color="rgba(255,255,255,0.6)"),
                     zmin=lo, zmax=hi if hi > lo else lo + 1e-12,
@@ -363,10 +363,11 @@ def atlas_figures(run: RunData, amap: AtlasMap, design_name: str = "the weighted
                     hovertemplate=f"{esc(xa)} = %{{x:.4g}} {esc(ux)}<br>{esc(ya)} = %{{y:.4g}} {esc(uy)}<br>"
                                   f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
             if amap.outline is not None:
-                fig.add_trace(go.Scatter(x=amap.outline[0], y=amap.outline[1], mode="lines", name="workspace boundary",
-                                         line=dict(color="#111", width=2), hoverinfo="skip", showlegend=False))
-            fig.update_xaxes(title_text=esc(label(xa, ux)), constrain="domain")
-            fig.update_yaxes(title_text=esc(label(ya, uy)), scaleanchor="x" if ux == uy else None, scaleratio=1,
+                fig.add_trace(dict(type="scatter", x=amap.outline[0], y=amap.outline[1], mode="lines",
+                                   name="workspace boundary", line=dict(color="#111", width=2), hoverinfo="skip",
+                                   showlegend=False))
+            fig.update_xaxes(title=dict(text=esc(label(xa, ux))), constrain="domain")
+            fig.update_yaxes(title=dict(text=esc(label(ya, uy))), scaleanchor="x" if ux == uy else None, scaleratio=1,
                              constrain="domain")
         missing = amap.unreachable + amap.singular.get(k, 0)
         note = f"{amap.points} points inside W" + (f", {missing} blank (unreachable or singular)" if missing else "")

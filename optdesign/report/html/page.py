@@ -108,9 +108,9 @@ class Page:
         title below the toolbar's strip (:func:`clear_of_modebar`)."""
         self.figures += 1
         clear_of_modebar(fig)
-        div = pio.to_html(fig, full_html=False, include_plotlyjs=False, include_mathjax=False, config=PLOTLY_CONFIG,
-                          div_id=f"fig{next(self._ids)}", default_width="100%",
-                          default_height=f"{int(fig.layout.height or 450)}px", validate=False,
+        div = pio.to_html(fig.to_dict(), full_html=False, include_plotlyjs=False, include_mathjax=False,
+                          config=PLOTLY_CONFIG, div_id=f"fig{next(self._ids)}", default_width="100%",
+                          default_height=f"{int(fig.layout.get('height') or 450)}px", validate=False,
                           auto_play=False)   # a figure with frames (a slider) opens on its first frame
         return f'<div class="{cls}">{div}</div>'
 
@@ -146,15 +146,16 @@ def clear_of_modebar(fig):
     """A titled figure's title anchored at the figure's top, ``MODEBAR_PX``
     below it: the toolbar (top right, shown on hover) no longer covers it.
     The top margin and the height grow by as much (the plot keeps its size)."""
-    t = fig.layout.title
-    if not t.text or (t.yref == "container" and t.pad.t == MODEBAR_PX):   # none, or done
+    lay = fig.layout
+    t = lay.get("title", {})
+    if not t.get("text") or (t.get("yref") == "container" and t.get("pad", {}).get("t") == MODEBAR_PX):   # none, or done
         return fig
-    top = fig.layout.margin.t
+    top = lay.get("margin", {}).get("t")
     if top is None:
-        tm = fig.layout.template.layout.margin if fig.layout.template is not None else None
-        top = tm.t if tm is not None and tm.t is not None else 80
+        top = lay.get("template", {}).get("layout", {}).get("margin", {}).get("t")
+        top = 80 if top is None else top
     fig.update_layout(title=dict(yref="container", y=1.0, yanchor="top", pad=dict(t=MODEBAR_PX)),
-                      margin=dict(t=int(top) + MODEBAR_PX), height=int(fig.layout.height or 450) + MODEBAR_PX)
+                      margin=dict(t=int(top) + MODEBAR_PX), height=int(lay.get("height") or 450) + MODEBAR_PX)
     return fig
 
 

@@ -11,11 +11,11 @@ import html
 import itertools
 
 import numpy as np
-import plotly.graph_objects as go
 
 from ...workspace import Workspace, WorkspaceSpec
 from ...units import index_label, pose_display, variable_unit
 from .figures import TEMPLATE, esc
+from .plot import Figure, colorscale
 from .rundata import Front, RunData
 
 __all__ = ["mechanism_figure", "alternatives", "workspace_figure", "copy_table", "COPY_SCRIPT"]
@@ -123,8 +123,6 @@ def _traces(dr: dict, k: int, order: np.ndarray, scale: float) -> list:
     c = np.nanmean(plat, axis=0) if np.any(np.isfinite(plat)) else np.zeros(3)
     m = len(plat)
     xyz = lambda a: dict(x=a[:, 0], y=a[:, 1], z=a[:, 2])  # noqa: E731
-    # plain trace dicts: the figure validates them once, as it is built (building each
-    # trace object and frame first cost 40 of the figure's 50 ms)
     lines = lambda a, color, width, name: dict(type="scatter3d", **xyz(a), mode="lines",  # noqa: E731
                                                line=dict(color=color, width=width), name=name, hoverinfo="skip")
     return [
@@ -139,7 +137,7 @@ def _traces(dr: dict, k: int, order: np.ndarray, scale: float) -> list:
     ]
 
 
-def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) -> go.Figure | None:
+def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) -> Figure | None:
     """The design drawn at the chosen poses, one frame per pose, with a slider;
     None when the mechanism has no drawing."""
     mech = _mech(run, params)
@@ -159,7 +157,7 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
         ok = np.all(np.isfinite(dr["platform"][k]))
         labels.append(f"{lab}: {where}" + ("" if ok else " (not reachable)"))
     frames = [dict(data=_traces(dr, k, order, scale), name=str(k)) for k in range(len(poses))]
-    fig = go.Figure(dict(data=frames[0]["data"], frames=frames))
+    fig = Figure(frames[0]["data"], frames=frames)
     # the slider's current value names the pose (its tick labels, the same long names, are hidden)
     steps = [dict(method="animate", label=f"{k + 1} of {len(poses)}: {esc(labels[k])}",
                   args=[[str(k)], dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))])
@@ -168,7 +166,7 @@ def mechanism_figure(run: RunData, params: dict, title: str, height: int = 620) 
     allpts = allpts[np.all(np.isfinite(allpts), axis=-1)]
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
     mid, half = 0.5 * (lo + hi), 0.55 * float(np.max(hi - lo)) + 1e-9
-    axis = lambda i, n: dict(title=f"{n} [{unit}]", range=[mid[i] - half, mid[i] + half])  # noqa: E731
+    axis = lambda i, n: dict(title=dict(text=f"{n} [{unit}]"), range=[mid[i] - half, mid[i] + half])  # noqa: E731
     fig.update_layout(template=TEMPLATE, height=height, title=dict(text=esc(title), x=0.01, y=0.98),
                       margin=dict(l=10, r=10, t=60, b=10), legend=dict(x=0.0, y=0.92),
                       scene=dict(xaxis=axis(0, "x"), yaxis=axis(1, "y"), zaxis=axis(2, "z"), aspectmode="cube"),
@@ -227,23 +225,24 @@ def _surface_grid(run: RunData, n: int = 41):
     return free, g, X, inside
 
 
-def _surface_figure(run: RunData, params: dict, grid) -> go.Figure:
+def _surface_figure(run: RunData, params: dict, grid) -> Figure:
     """A 2-D W: one surface per local index over W, its height and colour the index."""
     names = list(run.model.mechanism.pose_names)
     free, g, X, inside = grid
     vals = _local_values(run, params, X[inside])
     disp = [pose_display(run.units, names[i]) for i in free]
-    fig = go.Figure()
+    fig = Figure()
     keys = list(run.units.indices)
     for j, k in enumerate(keys):
         v = np.full(len(X), np.nan)
         v[inside] = vals[k]
         Z = v.reshape(len(g[1]), len(g[0]))
         lab = esc(index_label(run.units, k))
-        fig.add_trace(go.Surface(x=g[0] * disp[0][1], y=g[1] * disp[1][1], z=Z, surfacecolor=Z, colorscale="Viridis",
-                                 visible=j == 0, name=esc(k), colorbar=dict(title=dict(text=lab, side="right")),
-                                 hovertemplate=f"{esc(names[free[0]])} = %{{x:.4g}}, {esc(names[free[1]])} = %{{y:.4g}}<br>"
-                                               f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
+        fig.add_trace(dict(type="surface", x=g[0] * disp[0][1], y=g[1] * disp[1][1], z=Z, surfacecolor=Z,
+                           colorscale=colorscale("Viridis"), visible=j == 0, name=esc(k),
+                           colorbar=dict(title=dict(text=lab, side="right")),
+                           hovertemplate=f"{esc(names[free[0]])} = %{{x:.4g}}, {esc(names[free[1]])} = %{{y:.4g}}<br>"
+                                         f"{esc(k)} = %{{z:.5g}}<extra></extra>"))
     fixed = ", ".join(f"{a} = {X[0, i] * pose_display(run.units, a)[1]:.4g} {pose_display(run.units, a)[0]}"
                       for i, a in enumerate(names) if i not in free)
     buttons = [dict(label=esc(k), method="update",
@@ -253,14 +252,15 @@ def _surface_figure(run: RunData, params: dict, grid) -> go.Figure:
     fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=60, b=10),
                       title=dict(text=esc("The workspace W as a surface: height and colour a local index of the "
                                           "weighted-sum optimum" + (f" ({fixed})" if fixed else "")), x=0.01, y=0.98),
-                      scene=dict(xaxis_title=f"{names[free[0]]} [{disp[0][0]}]", yaxis_title=f"{names[free[1]]} [{disp[1][0]}]",
-                                 zaxis_title=esc(index_label(run.units, keys[0])), aspectmode="manual",
+                      scene=dict(xaxis=dict(title=dict(text=f"{names[free[0]]} [{disp[0][0]}]")),
+                                 yaxis=dict(title=dict(text=f"{names[free[1]]} [{disp[1][0]}]")),
+                                 zaxis=dict(title=dict(text=esc(index_label(run.units, keys[0])))), aspectmode="manual",
                                  aspectratio=dict(x=1, y=1, z=0.6)),
                       updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
     return fig
 
 
-def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
+def workspace_figure(run: RunData, params: dict) -> Figure | None:
     """W coloured by each local index of the design (a menu picks the index):
     a W with two free axes as a surface over it (height and colour the index),
     otherwise W in 3-D at the sample grid's points."""
@@ -280,22 +280,24 @@ def workspace_figure(run: RunData, params: dict) -> go.Figure | None:
     while len(C) < 3:
         C.append(np.zeros(len(X)))
         disp.append(("", 1.0))
-    fig = go.Figure()
+    fig = Figure()
     keys = list(run.units.indices)
     for j, k in enumerate(keys):
         v = vals[k]
         good = np.isfinite(v)
-        fig.add_trace(go.Scatter3d(x=C[0][good], y=C[1][good], z=C[2][good], mode="markers", visible=j == 0, name=esc(k),
-                                   marker=dict(size=3 if len(X) > 2000 else 4, color=v[good], colorscale="Viridis",
-                                               colorbar=dict(title=dict(text=esc(index_label(run.units, k)), side="right"))),
-                                   hovertemplate=f"{esc(k)} = %{{marker.color:.5g}}<extra></extra>"))
+        fig.add_trace(dict(type="scatter3d", x=C[0][good], y=C[1][good], z=C[2][good], mode="markers", visible=j == 0,
+                           name=esc(k),
+                           marker=dict(size=3 if len(X) > 2000 else 4, color=v[good], colorscale=colorscale("Viridis"),
+                                       colorbar=dict(title=dict(text=esc(index_label(run.units, k)), side="right"))),
+                           hovertemplate=f"{esc(k)} = %{{marker.color:.5g}}<extra></extra>"))
     axes = [f"{names[i]} [{disp[i][0]}]" if i < len(names) else "(plane)" for i in range(3)]
     buttons = [dict(label=esc(k), method="update", args=[{"visible": [i == j for i in range(len(keys))]}])
                for j, k in enumerate(keys)]
     fig.update_layout(template=TEMPLATE, height=560, margin=dict(l=10, r=10, t=80, b=10),
                       title=dict(text=esc("The workspace W coloured by a local index (weighted-sum optimum)")
                                  + (f"<br><sup>{esc(cut)}</sup>" if cut else ""), x=0.01, y=0.99, yanchor="top"),
-                      scene=dict(xaxis_title=axes[0], yaxis_title=axes[1], zaxis_title=axes[2]),
+                      scene=dict(xaxis=dict(title=dict(text=axes[0])), yaxis=dict(title=dict(text=axes[1])),
+                                 zaxis=dict(title=dict(text=axes[2]))),
                       updatemenus=[dict(buttons=buttons, x=0.0, y=1.0, xanchor="left", yanchor="top")])
     return fig
 
