@@ -60,6 +60,20 @@ def tiny(tmp_path_factory):
     return path
 
 
+#: the same mechanism with the smallest budget (one generation per stage, no polish, so no multi-start
+#: of the extremes): the tests of a signal after the run completed look at its last moments only
+SMALLEST = TINY.replace("polish: 1, extremes: {starts: 1, scan: 256}, population: 8, generations: 4",
+                        "polish: 0, population: 8, generations: 1").replace("generations: 3}", "generations: 1}")
+assert SMALLEST.count("generations: 1") == 2 and "polish: 0" in SMALLEST
+
+
+@pytest.fixture(scope="module")
+def smallest(tmp_path_factory):
+    path = tmp_path_factory.mktemp("smallest") / "smallest.yaml"
+    path.write_text(SMALLEST)
+    return path
+
+
 @pytest.fixture(scope="module")
 def reference(tiny, tmp_path_factory):
     out = tmp_path_factory.mktemp("ref")
@@ -274,14 +288,14 @@ def test_a_signal_during_the_run_leaves_no_process_of_its_group(tiny, reference,
 
 @pytest.mark.slow
 @pytest.mark.parametrize("command", ["run", "reproduce"])
-def test_a_signal_after_the_run_completed_gives_its_status(tiny, tmp_path, command):
+def test_a_signal_after_the_run_completed_gives_its_status(smallest, tmp_path, command):
     """SIGTERM or SIGINT as soon as the manifest says complete (and a few ms
     later): exit 0, as the manifest says, and nothing but the summary printed."""
     alive = 0
     for trial in range(2):
         out = tmp_path / f"runs{trial}"
         sig = (signal.SIGTERM, signal.SIGINT)[trial % 2]
-        proc = subprocess.Popen(CLI + [command, str(tiny), "--seed", str(SEED), "--out", str(out), "--quiet",
+        proc = subprocess.Popen(CLI + [command, str(smallest), "--seed", str(SEED), "--out", str(out), "--quiet",
                                        "--jobs", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         deadline = time.time() + 120
         while proc.poll() is None and time.time() < deadline:
