@@ -2,11 +2,11 @@
 (its traces, layout and frames), built as dicts.
 
 plotly's figure objects (``plotly.graph_objects``) check every property
-as it is set; building a report's figures through them took most of the
-time of writing the report (0.46 of 0.6 CPU-s for a small 3-P(4S) run,
-measured).  The figures here hold the same properties as those objects
-would (tests/test_report_html.py compares the two for every kind of
-figure): an update merges nested dicts as plotly's ``update`` does,
+as it is set; building a report's figures through them was most of the
+time of writing the report (``benchmarks/bench_report_ab.py`` measures the
+two ways side by side).  The figures here hold the same properties as
+those objects would (tests/test_report_html.py compares the two for every
+kind of figure): an update merges nested dicts as plotly's ``update`` does,
 subplot grids have plotly's ``make_subplots`` domains and titles, a named
 colour scale is spelled out as plotly spells it, and numeric arrays go to
 the page as plotly's typed arrays (``convert_to_base64``).
