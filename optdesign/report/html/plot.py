@@ -37,6 +37,8 @@ def merge(dst: dict, src: dict) -> dict:
 
 @functools.cache
 def _scale(name: str) -> tuple:
+    # plotly's own validator, which its figure objects apply (plotly.colors.get_colorscale, the
+    # public table, imports the same module, and its positions differ from the validator's by an ulp)
     from _plotly_utils.basevalidators import ColorscaleValidator
 
     return tuple(tuple(p) for p in ColorscaleValidator("colorscale", "scatter").validate_coerce(name))
