@@ -324,6 +324,29 @@ def test_the_views_of_other_mechanisms_are_what_plotly_makes_of_them(name):
             _same_as_plotly(fig)
 
 
+def test_the_views_of_a_segment_workspace_are_what_plotly_makes_of_them():
+    """The same for a W along one axis (the atlas is a line plot)."""
+    from optdesign.config import parse_config
+    from optdesign.evaluate import DesignModel
+    from optdesign.report.html.atlas import atlas_map
+    from optdesign.report.html.figures import atlas_figures
+    from optdesign.report.html.rundata import RunData
+    from optdesign.report.html.views import mechanism_figure, workspace_figure
+
+    d = small_data()
+    d["workspace"] = {"type": "box", "axes": {"x": [-0.05, 0.05], "y": 0.0, "z": 0.57}, "sampling": "grid",
+                      "step": 0.01}
+    cfg = parse_config(yaml.safe_dump(d))
+    des = cfg.initial_design()
+    run = RunData.of(Path("."), {}, {"optimum": des}, cfg)
+    amap = atlas_map(DesignModel.from_config(cfg), cfg.units(), cfg.workspace, des, 21)
+    assert amap.shape == "segment"
+    figs = atlas_figures(run, amap) + [mechanism_figure(run, des, "t"), workspace_figure(run, des)]
+    assert all(f is not None for f in figs) and figs[0].data[0]["type"] == "scatter"
+    for fig in figs:
+        _same_as_plotly(fig)
+
+
 # --------------------------------------------------------------------------- commands
 def test_report_command_and_folders_that_are_not_finished_runs(noref_run, tmp_path):
     done = tmp_path / "done"
