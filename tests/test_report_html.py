@@ -278,6 +278,28 @@ def _same_as_plotly(fig) -> None:
         assert json.loads(to_json_plotly(ours.get(part, []))) == json.loads(to_json_plotly(theirs.get(part, []))), part
 
 
+@pytest.mark.parametrize("rows, cols, titles, vs", [(1, 2, ["a", "b"], 0.1), (2, 2, ["a", "b", "c"], 0.12),
+                                                  (3, 3, list("abcdefg"), 0.12), (4, 3, list("abcdefghij"), 0.12),
+                                                  (2, 4, ["a", "", "c", "d", "e"], 0.18)])
+def test_subplot_grids_are_make_subplots_own(rows, cols, titles, vs):
+    """plot.subplots: the axes' domains and anchors and the titles' places of
+    plotly's make_subplots, number for number (the grids the report draws:
+    up to 10 single-objective panels in 3 columns, fronts' panels in 4)."""
+    from plotly.subplots import make_subplots
+
+    from optdesign.report.html.plot import subplots
+
+    theirs = make_subplots(rows=rows, cols=cols, subplot_titles=titles, horizontal_spacing=0.1,
+                           vertical_spacing=vs).to_dict()["layout"]
+    theirs.pop("template")
+    ours = subplots(rows, cols, titles, horizontal_spacing=0.1, vertical_spacing=vs)
+    assert ours.layout == theirs
+    fig = make_subplots(rows=rows, cols=cols, horizontal_spacing=0.1, vertical_spacing=vs)
+    fig.add_scatter(x=[0], y=[0], row=rows, col=cols)          # the last panel's axes
+    trace = ours.add_trace({"type": "scatter"}, row=rows, col=cols).data[0]
+    assert (trace["xaxis"], trace["yaxis"]) == (fig.data[0].xaxis, fig.data[0].yaxis)
+
+
 def test_every_figure_of_the_pages_is_what_plotly_makes_of_it(noref_run, two_objective_run, repro_copy, monkeypatch):
     """The reports and the comparison page build their figures as plain data
     (optdesign.report.html.plot); each is the figure plotly's checked objects

@@ -154,8 +154,8 @@ def subplots(rows: int, cols: int, titles: list[str], horizontal_spacing: float,
     for r in range(rows):
         for c in range(cols):
             n += 1
-            x_dom = [grid[r][c][0] + 0.0, grid[r][c][0] + widths[c] - 0.0]
-            y_dom = [_unit(grid[r][c][1] + 0.0), _unit(grid[r][c][1] + heights[-1 - r] - 0.0)]
+            x_dom = [grid[r][c][0], grid[r][c][0] + widths[c]]
+            y_dom = [_unit(grid[r][c][1]), _unit(grid[r][c][1] + heights[-1 - r])]
             suffix = str(n) if n > 1 else ""
             fig.layout[f"xaxis{suffix}"] = {"domain": x_dom, "anchor": f"y{suffix}"}
             fig.layout[f"yaxis{suffix}"] = {"domain": y_dom, "anchor": f"x{suffix}"}
