@@ -244,7 +244,7 @@ def test_progress_never_wider_than_the_terminal(tmp_path):
 
 @pytest.mark.slow
 def test_no_progress_when_not_a_terminal(tmp_path):
-    (tmp_path / "small.yaml").write_text((DATA / "p4s_small.yaml").read_text())
+    (tmp_path / "small.yaml").write_text((DATA / "p4s_tiny.yaml").read_text())     # what is printed, not the run
     p = subprocess.run([sys.executable, "-m", "optdesign.cli", "run", "small.yaml", "--out", "runs", "--jobs", "1",
                         "--no-pareto"], cwd=tmp_path, capture_output=True, text=True,
                        env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=240)
