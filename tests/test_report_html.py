@@ -311,7 +311,8 @@ def test_every_figure_of_the_pages_is_what_plotly_makes_of_it(noref_run, two_obj
 
     got = []
     real = page_mod.Page.figure
-    monkeypatch.setattr(page_mod.Page, "figure", lambda self, fig, cls="fig": (got.append(fig), real(self, fig, cls))[1])
+    monkeypatch.setattr(page_mod.Page, "figure",
+                        lambda self, fig, cls="fig": (got.append(fig), real(self, fig, cls))[1])
     runs = [load_run(f) for f in (noref_run, two_objective_run, repro_copy)]
     for run in runs:
         build_report(run)

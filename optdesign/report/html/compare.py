@@ -154,7 +154,8 @@ def _convergence_figure(runs, labels) -> Figure | None:
             continue
         g = np.array([x.get("generation", np.nan) for x in rows], float)
         b = np.array([x.get("best_objective", np.nan) for x in rows], float)
-        fig.add_trace(dict(type="scatter", x=g, y=b, mode="lines", name=esc(lab), line=dict(color=COLORS[j % len(COLORS)]),
+        fig.add_trace(dict(type="scatter", x=g, y=b, mode="lines", name=esc(lab),
+                           line=dict(color=COLORS[j % len(COLORS)]),
                            hovertemplate="generation %{x}<br>best f %{y:.5g}<extra>" + esc(lab) + "</extra>"))
     if not fig.data:
         return None

@@ -148,7 +148,8 @@ def clear_of_modebar(fig):
     The top margin and the height grow by as much (the plot keeps its size)."""
     lay = fig.layout
     t = lay.get("title", {})
-    if not t.get("text") or (t.get("yref") == "container" and t.get("pad", {}).get("t") == MODEBAR_PX):   # none, or done
+    done = t.get("yref") == "container" and t.get("pad", {}).get("t") == MODEBAR_PX
+    if not t.get("text") or done:   # none, or done
         return fig
     top = lay.get("margin", {}).get("t")
     if top is None:

@@ -76,15 +76,16 @@ class Figure:
         keys = [k for k in self.layout if k.startswith(f"{letter}axis")]
         return keys or [f"{letter}axis"]
 
-    def update_xaxes(self, row: int | None = None, col: int | None = None, **props) -> "Figure":
-        for k in self._axes("x", row, col):
+    def _update_axes(self, letter: str, row, col, props: dict) -> "Figure":
+        for k in self._axes(letter, row, col):
             merge(self.layout.setdefault(k, {}), props)
         return self
 
+    def update_xaxes(self, row: int | None = None, col: int | None = None, **props) -> "Figure":
+        return self._update_axes("x", row, col, props)
+
     def update_yaxes(self, row: int | None = None, col: int | None = None, **props) -> "Figure":
-        for k in self._axes("y", row, col):
-            merge(self.layout.setdefault(k, {}), props)
-        return self
+        return self._update_axes("y", row, col, props)
 
     def update_annotations(self, **props) -> "Figure":
         for a in self.layout.get("annotations", []):
