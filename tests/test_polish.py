@@ -153,3 +153,59 @@ def test_the_optimality_measure_says_where_the_objective_has_a_kink():
     for k in ("dynamic", "stiffness", "isotropy"):
         o = optimality(DesignProblem(ev, [index_term(k, "min")]), inside, ev.free)
         assert o["differentiable"] and o["one_sided_jump"] < 1e-4, k
+
+
+class _Segment:
+    """A problem along the segment x0 + t (x1 - x0), t = X[:, 0]: feasible
+    where ``feasible(t)``, objective 1 - t; counts its calls."""
+
+    def __init__(self, feasible):
+        self.feasible, self.calls, self.rows = feasible, 0, 0
+
+    def _evaluate(self, X, out):
+        self.calls += 1
+        self.rows += len(X)
+        t = X[:, 0]
+        out["F"] = (1.0 - t)[:, None]
+        out["G"] = np.where(self.feasible(t), -1.0, 1.0)[:, None]
+
+
+def _bisection(feasible, x0, x1, steps=30):
+    """The end one step at a time (the reference the batched steps must equal)."""
+    if feasible(np.array([x1[0]]))[0]:
+        return x1, 1.0 - x1[0]
+    a, b, fa = 0.0, 1.0, None
+    for _ in range(steps):
+        m = 0.5 * (a + b)
+        x = x0 + m * (x1 - x0)
+        if feasible(np.array([x[0]]))[0]:
+            a, fa = m, 1.0 - x[0]
+        else:
+            b = m
+    x = x0 + a * (x1 - x0)
+    return x, (fa if fa is not None else 1.0 - x[0])
+
+
+@pytest.mark.parametrize("steps", [30, 7, 1])
+@pytest.mark.parametrize("case", ["threshold", "islands", "none", "end feasible"])
+def test_the_batched_bisection_ends_where_one_step_at_a_time_does(case, steps):
+    """_feasible_end checks LEVELS steps in one call; the steps it takes, and so
+    its end and value, are those of the plain bisection, bit for bit, also
+    where the feasible set along the segment is not an interval."""
+    from optdesign.optimize.polish import LEVELS, _feasible_end
+
+    rng = np.random.default_rng(steps)
+    cut = rng.uniform(0.1, 0.9)
+    feasible = {"threshold": lambda t: t <= cut,
+                "islands": lambda t: ((np.sin(40.0 * t) > 0.3) & (t < 0.95)) | (t <= 1e-3),
+                "none": lambda t: t < 0.0,
+                "end feasible": lambda t: t <= 2.0}[case]
+    x0, x1 = np.array([0.0, 0.3]), np.array([1.0, -0.7])
+    prob = _Segment(feasible)
+    x, f = _feasible_end(prob, x0, x1, steps)
+    xr, fr = _bisection(feasible, x0, x1, steps)
+    assert x.tobytes() == xr.tobytes() and f == fr
+    if case == "end feasible":
+        assert prob.calls == 1
+    else:   # the end, then ceil(steps / LEVELS) calls (and x0's value where no midpoint was feasible)
+        assert prob.calls == 1 + -(-steps // LEVELS) + (case == "none")
