@@ -117,3 +117,16 @@ def test_unreachable_pose_gives_nan_and_mask():
     assert np.all(np.isfinite(Q[0])) and np.all(np.isnan(Q[1]))
     assert mech.reachable(X).tolist() == [True, False]
     assert np.all(np.isnan(mech.jacobian(X)[1]))
+
+
+@pytest.mark.parametrize("shapes", [((5, 3, 3), (5, 3, 3)), ((4, 1, 3, 3), (3, 3)), ((2, 3), (7, 1, 3))])
+def test_the_constants_cross_product_is_numpys_to_the_bit(shapes):
+    """constants._cross (the cross product of the legs' axes, without np.cross's
+    axis moves) gives np.cross's bits, broadcasting as it does."""
+    from optdesign.mechanisms.described.constants import _cross
+
+    rng = np.random.default_rng(len(shapes[0]))
+    a = rng.normal(size=shapes[0]) * 10.0 ** rng.integers(-8, 8, size=shapes[0])
+    b = rng.normal(size=shapes[1])
+    got, want = _cross(a, b), np.cross(a, b)
+    assert got.shape == want.shape and got.tobytes() == want.tobytes()

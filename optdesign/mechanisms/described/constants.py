@@ -70,7 +70,7 @@ def home_sigma(desc: Description, C: "Constants") -> tuple[np.ndarray, np.ndarra
     r = np.einsum("...jk,...ik->...ij", fr.R, C.P)
     w = fr.origin[..., None, :] + r - C.A
     w = np.broadcast_to(w, np.broadcast_shapes(w.shape, C.A.shape))
-    sigma = np.sum(C.U * np.cross(w, np.broadcast_to(C.A, w.shape)), axis=-1)
+    sigma = np.sum(C.U * _cross(w, np.broadcast_to(C.A, w.shape)), axis=-1)
     scale = np.sqrt(np.sum(w * w, axis=-1) * np.sum(C.A * C.A, axis=-1))
     n = len(C.kind)
     return sigma.reshape(C.shape + (n,)), np.broadcast_to(scale, sigma.shape).reshape(C.shape + (n,))
@@ -103,7 +103,24 @@ def _bc(v, shape) -> np.ndarray:
 def _turn(v: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rz(angle) v for v S + (3,), angle S."""
     c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1], v[..., 2]], -1)
+    x = c * v[..., 0] - s * v[..., 1]
+    out = np.empty(x.shape + (3,))
+    out[..., 0] = x
+    out[..., 1] = s * v[..., 0] + c * v[..., 1]
+    out[..., 2] = v[..., 2]
+    return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """np.cross of two (..., 3) arrays: numpy's own operations (a1 b2 - a2 b1,
+    a2 b0 - a0 b2, a0 b1 - a1 b0), so its bits, without its overhead (its
+    axis moves cost more than the arithmetic on a few designs)."""
+    x = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out = np.empty(x.shape + (3,))
+    out[..., 0] = x
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -177,7 +194,7 @@ def _constants(desc: Description, env: dict, shape: tuple) -> Constants:
     AC = np.where(has(trees), _unit(_turn(leg_vecs(trees), tb)), 0.0)
     La = [ev(leg.crank) if leg.crank is not None else 0.0 for leg in legs]
     Lr = [ev(leg.rod) if leg.rod is not None else 0.0 for leg in legs]
-    S0 = np.cross(U, R0)
+    S0 = _cross(U, R0)
     La, Lr = per_leg(La), per_leg(Lr)
     pose = desc.pose
     centre = vec(pose.centre)
