@@ -40,30 +40,34 @@ _RULES = {
 
 
 def _bad(rule: str, v: np.ndarray) -> np.ndarray:
-    with np.errstate(all="ignore"):
-        if rule == "nonneg":
-            return ~(v >= 0)
-        if rule == "fraction":
-            return ~((v >= 0) & (v <= 1))
-        if rule == "count":
-            return ~((v >= 1) & (v <= MAX_COUNT) & (v == np.floor(v)))
-        return ~((v >= 0) & (v <= MAX_GRAVITY))          # gravity
+    """Where v breaks the rule (the caller holds numpy's errors off)."""
+    if rule == "nonneg":
+        return ~(v >= 0)
+    if rule == "fraction":
+        return ~((v >= 0) & (v <= 1))
+    if rule == "count":
+        return ~((v >= 1) & (v <= MAX_COUNT) & (v == np.floor(v)))
+    return ~((v >= 0) & (v <= MAX_GRAVITY))          # gravity
 
 
 def problems(desc: Description, C: Constants):
     """[(key path, what is expected, values, bad)]: every physical quantity
     the description gives, its values (the design shape) and where it is invalid."""
+    with np.errstate(all="ignore"):     # once: an evaluation asks for every design it makes
+        return _problems(desc, C)
+
+
+def _problems(desc: Description, C: Constants):
     out = []
     if desc.platform.mass is not None:
         m = np.asarray(C.m_platform, dtype=float)
         out.append(("mechanism.platform.mass", "a mass >= 0 kg", m, _bad("nonneg", m)))
-        with np.errstate(all="ignore"):
-            I = np.asarray(C.I_platform, dtype=float)
-            ok = np.all(np.isfinite(I), axis=(-1, -2))
-            lam = np.linalg.eigvalsh(np.where(ok[..., None, None], I, 0.0))
-            scale = np.max(np.abs(lam), axis=-1)
-            low = lam[..., 0]
-            bad = ~ok | (low < -1e-12 * scale)
+        I = np.asarray(C.I_platform, dtype=float)
+        ok = np.all(np.isfinite(I), axis=(-1, -2))
+        lam = np.linalg.eigvalsh(np.where(ok[..., None, None], I, 0.0))
+        scale = np.max(np.abs(lam), axis=-1)
+        low = lam[..., 0]
+        bad = ~ok | (low < -1e-12 * scale)
         out.append(("mechanism.platform.inertia", "a positive semi-definite inertia (kg m^2)", low, bad))
     g = np.asarray(C.g, dtype=float)
     out.append(("mechanism.gravity", f"a gravity in [0, {MAX_GRAVITY:g}] m/s^2", g, _bad("gravity", g)))
