@@ -189,10 +189,10 @@ def _bisection(feasible, x0, x1, steps=30):
 @pytest.mark.parametrize("steps", [30, 7, 1])
 @pytest.mark.parametrize("case", ["threshold", "islands", "none", "end feasible"])
 def test_the_batched_bisection_ends_where_one_step_at_a_time_does(case, steps):
-    """_feasible_end checks LEVELS steps in one call; the steps it takes, and so
+    """feasible_end checks LEVELS steps in one call; the steps it takes, and so
     its end and value, are those of the plain bisection, bit for bit, also
     where the feasible set along the segment is not an interval."""
-    from optdesign.optimize.polish import LEVELS, _feasible_end
+    from optdesign.optimize.feasible import LEVELS, feasible_end
 
     rng = np.random.default_rng(steps)
     cut = rng.uniform(0.1, 0.9)
@@ -202,7 +202,7 @@ def test_the_batched_bisection_ends_where_one_step_at_a_time_does(case, steps):
                 "end feasible": lambda t: t <= 2.0}[case]
     x0, x1 = np.array([0.0, 0.3]), np.array([1.0, -0.7])
     prob = _Segment(feasible)
-    x, f = _feasible_end(prob, x0, x1, steps)
+    x, f = feasible_end(prob, x0, x1, steps)
     xr, fr = _bisection(feasible, x0, x1, steps)
     assert x.tobytes() == xr.tobytes() and f == fr
     if case == "end feasible":

@@ -40,6 +40,7 @@ from scipy.optimize import minimize, nnls
 from threadpoolctl import ThreadpoolController
 
 from ..gradients import derivatives
+from .feasible import check, feasible_end
 from .problem import normalized_terms
 
 __all__ = ["term_value", "distinct_best", "polish_designs", "polish_front_point", "optimality", "one_blas_thread",
@@ -163,13 +164,6 @@ def _slsqp(fun, jac, u0, cons, n_bounds, options, callback=None):
                      constraints=[cons], options=options, callback=callback)
 
 
-def _check(problem, X):
-    """The Evaluator's objective values (D,) and feasibility (D,) of designs X."""
-    out = {}
-    problem._evaluate(np.atleast_2d(X), out)
-    return out["F"][:, 0], np.all(out["G"] <= 0, axis=1), out
-
-
 def _objective(term, pt, f0: float, width):
     """(fun, jac) SLSQP minimizes for a term, in unit-box coordinates: an index
     or extra objective of one sign as log(sign * value) when that is positive at
@@ -206,7 +200,7 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
     term = problem.terms[0]
     pt = _Point(ev, route)
     xl, width = ev.xl, ev.xu - ev.xl
-    F0, ok0, _ = _check(problem, starts)
+    F0, ok0, _ = check(problem, starts)
     runs, best = [], None
     for x0, f0, ok in zip(starts, F0, ok0):
         if not ok:
@@ -232,7 +226,7 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
             u0 = (x - xl) / width
             res = _slsqp(fun, jac, u0, cons, len(x0), _options(pt, u0, maxiter), meet if ends else None)
             nit += int(res.nit)
-            x1, f1 = _feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
+            x1, f1 = feasible_end(problem, x, xl + width * np.clip(res.x, 0, 1))
             better = f1 < f - 1e-15 * max(abs(f), 1e-300)
             if better:
                 x, f = x1, f1
@@ -245,53 +239,6 @@ def polish_designs(problem, starts: np.ndarray, maxiter: int = 100, route: str =
             best = (x, f)
     return {"best": best, "runs": runs, "evaluations": pt.calls, "route": pt.d.route if pt.d is not None else None,
             "route_reason": pt.d.reason if pt.d is not None else ""}
-
-
-#: bisection steps of :func:`_feasible_end` checked in one call of the Evaluator:
-#: the 2^LEVELS - 1 midpoints those steps may visit (a call's fixed cost is most of
-#: a one-design check: 3-P(4S) paper config 0.89 ms for one design, 1.18 ms for 7)
-LEVELS = 3
-
-
-def _midpoints(a: float, b: float, levels: int) -> list[float]:
-    """Every midpoint the next ``levels`` bisection steps of [a, b] may visit,
-    each computed as the bisection computes it (``0.5 * (a + b)`` of its interval)."""
-    m = 0.5 * (a + b)
-    if levels <= 1:
-        return [m]
-    return [m] + _midpoints(a, m, levels - 1) + _midpoints(m, b, levels - 1)
-
-
-def _feasible_end(problem, x0, x1, steps: int = 30):
-    """(x, its objective value): x1 if the Evaluator finds it feasible, else
-    the feasible point nearest x1 on the segment from the feasible x0
-    (bisection, ``steps`` steps).  The value is the Evaluator's, from the
-    check that found x feasible (x0's own when no point of the segment was).
-    The steps are checked :data:`LEVELS` at a time: one call for every
-    midpoint they may visit, then the steps taken as one at a time would
-    take them (the Evaluator's answer for a design does not depend on the
-    others of its call), so the end is the same to the bit."""
-    f, ok, _ = _check(problem, x1)
-    if ok[0]:
-        return x1, float(f[0])
-    a, b = 0.0, 1.0     # x0 + a (x1 - x0) feasible, + b not
-    fa = None           # the value at x0 + a (x1 - x0), once a point of the segment was feasible
-    left = steps
-    while left > 0:
-        k = min(LEVELS, left)
-        ms = _midpoints(a, b, k)
-        f, ok, _ = _check(problem, np.stack([x0 + m * (x1 - x0) for m in ms]))
-        got = {m: (bool(o), float(v)) for m, o, v in zip(ms, ok, f)}
-        for _ in range(k):
-            m = 0.5 * (a + b)
-            feasible, value = got[m]
-            if feasible:
-                a, fa = m, value
-            else:
-                b = m
-        left -= k
-    x = x0 + a * (x1 - x0)
-    return x, (fa if fa is not None else float(_check(problem, x)[0][0]))
 
 
 def polish_front_point(problem, x0: np.ndarray, r: np.ndarray, maxiter: int = 100, route: str = "auto"):
@@ -417,7 +364,7 @@ def _one_sided_jump(problem, x: np.ndarray, width: np.ndarray, h_rel: float = 1e
     h = h_rel * width
     X = np.concatenate([x[None], x + np.diag(h), x - np.diag(h)])
     with np.errstate(all="ignore"):
-        F, _, _ = _check(problem, X)
+        F, _, _ = check(problem, X)
     if not np.all(np.isfinite(F)):
         return float("inf")      # the objective is not finite next to x (impossible geometry): no slope
     right, left = (F[1:n + 1] - F[0]) / h, (F[0] - F[n + 1:]) / h

@@ -30,7 +30,8 @@ import numpy as np
 from scipy.optimize import nnls
 
 from ..gradients import derivatives
-from .polish import MARGIN, _check, _objective, _Point, one_blas_thread
+from .feasible import check
+from .polish import MARGIN, _objective, _Point, one_blas_thread
 
 __all__ = ["walk", "walk_design"]
 
@@ -133,7 +134,7 @@ def walk_design(problem, x0: np.ndarray, iterations: int = 200) -> dict:
     "iterations", "evaluations"}`` (the Evaluator's objective value)."""
     ev = problem.evaluate_designs
     xl, w = ev.xl, ev.xu - ev.xl
-    F0, ok0, _ = _check(problem, np.asarray(x0, dtype=float))
+    F0, ok0, _ = check(problem, np.asarray(x0, dtype=float))
     pt = _Point(ev, "auto")
     fun, jac = _objective(problem.terms[0], pt, float(F0[0]), w)
     calls = [0]
@@ -149,10 +150,10 @@ def walk_design(problem, x0: np.ndarray, iterations: int = 200) -> dict:
         c = np.concatenate([-(d.constraints[k] + MARGIN) for k in d.constraints], axis=1)
         return np.where(np.isfinite(c), c, -1.0)
 
-    def check(U):
+    def verdict(U):
         calls[0] += len(U)
-        F, ok, _ = _check(problem, xl + w * U)
+        F, ok, _ = check(problem, xl + w * U)
         return F, ok
 
-    u, f, it = walk(grad, rows, check, (np.asarray(x0, dtype=float) - xl) / w, iterations)
+    u, f, it = walk(grad, rows, verdict, (np.asarray(x0, dtype=float) - xl) / w, iterations)
     return {"end": (xl + w * u).tolist(), "end_value": f, "iterations": it, "evaluations": calls[0] + pt.calls}
