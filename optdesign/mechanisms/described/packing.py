@@ -51,7 +51,7 @@ def _pack(mech):
 
     def per_design(a, tail):
         a = np.asarray(a, dtype=float)
-        if a.shape != shape + tail:       # (the common case needs no broadcast: 5 us of 28 calls a pack)
+        if a.shape != shape + tail:       # most have it already (np.broadcast_to: 5 us, 28 calls a pack)
             a = np.broadcast_to(a, shape + tail)
         return a.reshape((D,) + tail)
 
