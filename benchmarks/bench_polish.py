@@ -195,7 +195,6 @@ def main():
                       f"({values / max(its, 1):.1f} per iteration)")
             if base_pkg is not None:
                 print(f"    ratio (this / {args.base}): {runs['this tree'][0] / runs[args.base][0]:.2f}")
-            if base_pkg is not None:
                 print(f"    the polished values' largest relative difference: "
                       f"{_rel(np.array(found['this tree'], float), np.array(found[args.base], float)):.1e} (0: the same bits)")
     print(f"({_load()})")

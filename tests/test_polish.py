@@ -160,11 +160,10 @@ class _Segment:
     where ``feasible(t)``, objective 1 - t; counts its calls."""
 
     def __init__(self, feasible):
-        self.feasible, self.calls, self.rows = feasible, 0, 0
+        self.feasible, self.calls = feasible, 0
 
     def _evaluate(self, X, out):
         self.calls += 1
-        self.rows += len(X)
         t = X[:, 0]
         out["F"] = (1.0 - t)[:, None]
         out["G"] = np.where(self.feasible(t), -1.0, 1.0)[:, None]
