@@ -1,51 +1,61 @@
 """The CasADi function of the AD route (:mod:`optdesign.gradients`): the
 closure's Jacobian, its design derivatives and the mass matrix's, built once
-per mechanism and free variables, and evaluated over many poses as one mapped
-call."""
+per mechanism and free variables (compiled to machine code where the machine
+has a C compiler, :mod:`.casadi_c`), and evaluated over many poses as one
+mapped call."""
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ad_function", "mapped", "columns", "vec_columns"]
+from .casadi_c import compiled
+
+__all__ = ["ad_function", "symbolic_function", "mapped", "columns", "vec_columns"]
 
 _FUNCTIONS: dict = {}
 
 
 def ad_function(name: str, builder, free: tuple[str, ...]):
     """The CasADi function (x, q, p) -> J, dJ/dp, dq/dp[, M_p, dM_p/dp] of a
-    mechanism for the free parameters ``free`` (cached per process), or None
-    when the model does not read every free parameter."""
+    mechanism for the free parameters ``free`` and its model (cached per
+    process; machine code where the machine has a C compiler, the same bits:
+    :mod:`.casadi_c`), or None when the model does not read every free
+    parameter."""
     key = (name, free)
-    if key in _FUNCTIONS:
-        return _FUNCTIONS[key]
+    if key not in _FUNCTIONS:
+        got = symbolic_function(name, builder, free)
+        _FUNCTIONS[key] = None if got is None else (compiled(got[0]), got[1])
+    return _FUNCTIONS[key]
+
+
+def symbolic_function(name: str, builder, free: tuple[str, ...]):
+    """(the SX function of :func:`ad_function`, the model), built anew and
+    evaluated by CasADi's virtual machine, or None."""
     import casadi as ca
 
     model = builder()
-    fn = None
-    if set(free) <= set(model.param_names):
-        x, q = ca.SX.sym("x", model.dof), ca.SX.sym("q", model.n_act)
-        syms = {k: ca.SX.sym(k) for k in model.param_names}
-        P = ca.vertcat(*[syms[k] for k in model.param_names])
-        Pf = ca.vertcat(*[syms[k] for k in free])
-        f = model.closure_fn(x, q, syms)
-        fq = ca.jacobian(f, q)
-        J = -ca.solve(fq, ca.jacobian(f, x))
-        dq = -ca.solve(fq, ca.jacobian(f, Pf))
+    if not set(free) <= set(model.param_names):
+        return None
+    x, q = ca.SX.sym("x", model.dof), ca.SX.sym("q", model.n_act)
+    syms = {k: ca.SX.sym(k) for k in model.param_names}
+    P = ca.vertcat(*[syms[k] for k in model.param_names])
+    Pf = ca.vertcat(*[syms[k] for k in free])
+    f = model.closure_fn(x, q, syms)
+    fq = ca.jacobian(f, q)
+    J = -ca.solve(fq, ca.jacobian(f, x))
+    dq = -ca.solve(fq, ca.jacobian(f, Pf))
 
-        def total(A):
-            v = ca.vec(A)
-            return ca.jacobian(v, Pf) + ca.mtimes(ca.jacobian(v, q), dq)
+    def total(A):
+        v = ca.vec(A)
+        return ca.jacobian(v, Pf) + ca.mtimes(ca.jacobian(v, q), dq)
 
-        outs = [J, total(J), dq]
-        if model.kinetic_fn is not None:
-            xd = ca.SX.sym("xd", model.dof)
-            T = model.kinetic_fn(x, q, xd, ca.mtimes(J, xd), syms)
-            Mp = ca.substitute(ca.jacobian(ca.gradient(T, xd), xd), xd, ca.DM.zeros(model.dof))
-            outs += [Mp, total(Mp)]
-        # cse: common subexpressions evaluated once (8 % of the evaluation; the same operations, the same bits)
-        fn = (ca.Function(f"design_derivatives_{name}", [x, q, P], outs, {"cse": True}), model)
-    _FUNCTIONS[key] = fn
-    return fn
+    outs = [J, total(J), dq]
+    if model.kinetic_fn is not None:
+        xd = ca.SX.sym("xd", model.dof)
+        T = model.kinetic_fn(x, q, xd, ca.mtimes(J, xd), syms)
+        Mp = ca.substitute(ca.jacobian(ca.gradient(T, xd), xd), xd, ca.DM.zeros(model.dof))
+        outs += [Mp, total(Mp)]
+    # cse: common subexpressions evaluated once (8 % of the evaluation; the same operations, the same bits)
+    return ca.Function(f"design_derivatives_{name}", [x, q, P], outs, {"cse": True}), model
 
 
 _MAPS: dict = {}
