@@ -36,11 +36,10 @@ def _inputs(ev, model, n):
     P = ev.workspace.X
     with np.errstate(all="ignore"):
         st = mech.state(P)
+    from optdesign.gradients.casadi_fn import arguments
+
     D, N = len(X), len(P)
-    q = np.nan_to_num(np.broadcast_to(st.q, (D, N, model.n_act)).reshape(D * N, -1)).T
-    p = np.stack([np.broadcast_to(np.asarray(mech.params[k], dtype=float).reshape(-1, 1), (D, N)).ravel()
-                  for k in model.param_names])
-    x = np.broadcast_to(P, (D, N, P.shape[1])).reshape(D * N, -1).T
+    x, q, p = arguments(P, np.broadcast_to(st.q, (D, N, model.n_act)), mech.params, model.param_names)
     idx = np.arange(n) % (D * N)
     return [np.ascontiguousarray(a[:, idx]) for a in (x, q, p)]
 

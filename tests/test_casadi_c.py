@@ -47,11 +47,7 @@ def _inputs(ev, model, seed):
     with np.errstate(all="ignore"):
         st = mech.state(P)
     D, N = len(X), len(P)
-    Q = np.nan_to_num(np.broadcast_to(st.q, (D, N, model.n_act)).reshape(D * N, -1))
-    pv = np.stack([np.broadcast_to(np.asarray(mech.params[k], dtype=float).reshape(-1, 1), (D, N)).ravel()
-                   for k in model.param_names])
-    x = np.broadcast_to(P, (D, N, P.shape[1])).reshape(D * N, -1).T
-    q, p = Q.T, pv
+    x, q, p = casadi_fn.arguments(P, np.broadcast_to(st.q, (D, N, model.n_act)), mech.params, model.param_names)
     # wild: zeros (a singular closure), huge and tiny scales, negative lengths, the same value everywhere,
     # NaN and infinite inputs
     k = 64

@@ -44,7 +44,8 @@ from .. import fast, worstcase
 from ..evaluate import _COND, Evaluator
 from ..local_derivatives import local_derivative, solve as _solve
 from ..mechanisms import symbolic_model
-from .casadi_fn import ad_function as _ad_function, columns as _columns, mapped as _mapped, vec_columns as _vec_columns
+from .casadi_fn import ad_function as _ad_function, arguments as _arguments, columns as _columns
+from .casadi_fn import mapped as _mapped, vec_columns as _vec_columns
 from .fd import ENVELOPE_STEP, FD_STEP, fd_derivatives, smooth_singularity  # noqa: F401  (re-exported)
 
 __all__ = ["Derivatives", "derivatives", "local_derivative", "ad_available", "smooth_singularity"]
@@ -143,11 +144,8 @@ def _ad_matrices(evaluator: Evaluator, mech, designs: dict, X: np.ndarray, value
             M = np.broadcast_to(st.matrices({"M"})["M"], Jm.shape) if needs_M else None
         none = np.zeros(Jm.shape + (0,))
         return Jm, none, M, None if M is None else none, Q, np.zeros(Q.shape + (0,))
-    pv = np.stack([np.broadcast_to(np.asarray(mech.params[k], dtype=float).reshape(-1, 1), (D, N)).ravel()
-                   for k in model.param_names])
     n = D * N
-    Xc = np.broadcast_to(X, (D, N, X.shape[1])).reshape(n, -1)
-    outs = _mapped(fn, n)(Xc.T, np.nan_to_num(Q.reshape(n, -1)).T, pv)
+    outs = _mapped(fn, n)(*_arguments(X, Q, mech.params, model.param_names))
     J = _columns(outs[0], model.n_act, n, model.dof)
     dJ = _vec_columns(outs[1], model.n_act, model.dof, n, nf)
     dQ = _columns(outs[2], model.n_act, n, nf)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .casadi_c import compiled
 
-__all__ = ["ad_function", "symbolic_function", "mapped", "columns", "vec_columns"]
+__all__ = ["ad_function", "symbolic_function", "arguments", "mapped", "columns", "vec_columns"]
 
 _FUNCTIONS: dict = {}
 
@@ -56,6 +56,18 @@ def symbolic_function(name: str, builder, free: tuple[str, ...]):
         outs += [Mp, total(Mp)]
     # cse: common subexpressions evaluated once (8 % of the evaluation; the same operations, the same bits)
     return ca.Function(f"design_derivatives_{name}", [x, q, P], outs, {"cse": True}), model
+
+
+def arguments(X: np.ndarray, Q: np.ndarray, params: dict, names) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The mapped call's inputs (x, q, p), each (rows, D N): the N poses X (N,
+    dof) of each of D designs, their actuator coordinates Q (D, N, n_act) (NaN,
+    out of reach: 0) and the parameters ``names`` of ``params`` (scalars or
+    (D, 1))."""
+    D, N = Q.shape[:2]
+    n = D * N
+    p = np.stack([np.broadcast_to(np.asarray(params[k], dtype=float).reshape(-1, 1), (D, N)).ravel() for k in names])
+    x = np.broadcast_to(X, (D, N, X.shape[1])).reshape(n, -1)
+    return x.T, np.nan_to_num(Q.reshape(n, -1)).T, p
 
 
 _MAPS: dict = {}
